@@ -1,0 +1,35 @@
+# boundid — every target installs what it needs: `make report` and `make test` work on a fresh clone.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed-stamp
+# two workers: the machines have 2 cores
+PYTEST := $(BIN)/pytest -n 2 -q
+
+.PHONY: install test test-all bench report lint teach test-browser clean
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e '.[dev]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+test: $(STAMP)
+	$(PYTEST) -m "not slow"
+
+test-all: $(STAMP)
+	$(PYTEST)
+
+lint: $(STAMP)
+	$(BIN)/ruff check src tests
+
+bench: $(STAMP)
+	$(BIN)/python -m boundid.bench --out reports/benchmarks
+
+report: $(STAMP)
+	$(BIN)/boundid report
+
+clean:
+	rm -rf $(VENV) .pytest_cache build src/*.egg-info

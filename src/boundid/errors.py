@@ -1,0 +1,28 @@
+"""The few exception types boundid raises.
+
+Every message says what was wrong and what to do about it.
+"""
+
+
+class BoundidError(Exception):
+    """Base class of every boundid error."""
+
+
+class InputError(BoundidError, ValueError):
+    """Bad input: wrong shape, NaN or infinite values, non-positive bounds, unknown option."""
+
+
+class InfeasibleDataError(BoundidError):
+    """The data contradict the error bounds: the feasible parameter set is empty."""
+
+
+class SolverError(BoundidError, RuntimeError):
+    """An LP or SDP solver failed or returned an inaccurate answer."""
+
+
+class UnreachablePoseError(BoundidError, ValueError):
+    """A robot pose outside the workspace or too close to a singularity."""
+
+
+class StudyError(BoundidError, ValueError):
+    """A study file that cannot be run: missing key, wrong type, unknown value."""

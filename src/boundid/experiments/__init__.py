@@ -1,0 +1,1 @@
+"""Layer 4, experiments: excitation, simulation, measurement, preprocessing, regressions."""

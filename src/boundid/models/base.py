@@ -1,0 +1,130 @@
+"""The robot-model contract every robot implements (direct-drive arm, H4, linear toy).
+
+Shapes: ``n`` joints, ``p`` parameters, ``N`` samples. State arrays are (N, n); a single state
+(n,) is accepted and treated as N = 1. Regressors are linear in theta:
+
+    tau      = Y(q, qd, qdd) theta                      (inverse dynamics, N x n x p)
+    Y theta  = d/dt[Ya(q, qd) theta] + Yb(q, qd) theta  (momentum form, no qdd needed)
+    H        = K + U = phi_H(q, qd) theta                (total energy, N x p)
+    qd^T f   = phi_f(qd) theta                           (friction power, N x p)
+
+so that the four regression models of :mod:`boundid.experiments.regression` work for any robot.
+Coulomb friction is ``sign(qd)`` in the identification model; simulation may smooth it as
+``tanh(qd / coulomb_width)`` (``coulomb_width`` in rad/s, 0 means the exact sign).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from boundid._validation import as_float_array
+from boundid.errors import InputError
+
+
+def coulomb(qd: np.ndarray, width: float = 0.0) -> np.ndarray:
+    """sign(qd) (width 0) or its smooth approximation tanh(qd / width), width in rad/s."""
+    if width < 0:
+        raise InputError(f"coulomb_width must be >= 0 rad/s, got {width}.")
+    return np.sign(qd) if width == 0 else np.tanh(qd / width)
+
+
+class RobotModel(ABC):
+    """A rigid robot whose dynamics are linear in a parameter vector theta (p,)."""
+
+    #: short identifier used in study files, e.g. "direct_drive"
+    name: str
+    #: number of actuated joints n
+    n_joints: int
+    #: parameter names (p,), in the order of theta
+    param_names: tuple[str, ...]
+    #: SI units of each parameter, e.g. "kg m^2", "N m s/rad"
+    param_units: tuple[str, ...]
+    #: the values used to simulate ("truth"), (p,)
+    theta_true: np.ndarray
+    #: a-priori (design) values, (p,), NaN where unknown
+    theta_prior: np.ndarray
+
+    @property
+    def p(self) -> int:
+        return len(self.param_names)
+
+    # -- input handling ---------------------------------------------------------------
+    def _states(self, *arrays, names=("q", "qd", "qdd")) -> tuple[list[np.ndarray], bool]:
+        """Check and reshape state arrays to (N, n); returns them and whether input was 1-D."""
+        out, single = [], None
+        for a, nm in zip(arrays, names, strict=False):
+            a = as_float_array(a, nm)
+            s = a.ndim == 1
+            a = np.atleast_2d(a)
+            if a.ndim != 2 or a.shape[1] != self.n_joints:
+                raise InputError(
+                    f"{nm} must have shape (N, {self.n_joints}) or ({self.n_joints},) for the "
+                    f"{self.n_joints}-joint {self.name} model, got {np.shape(a)}."
+                )
+            if not np.all(np.isfinite(a)):
+                raise InputError(f"{nm} contains NaN or infinite values; clean the data first.")
+            single = s if single is None else single
+            out.append(a)
+        if len({a.shape[0] for a in out}) > 1:
+            raise InputError(f"state arrays {names[: len(out)]} must have the same number of samples.")
+        return out, bool(single)
+
+    # -- the contract -------------------------------------------------------------------
+    @abstractmethod
+    def regressor(self, q, qd, qdd) -> np.ndarray:
+        """Inverse-dynamics regressor Y (N, n, p): tau = Y theta (Coulomb as sign(qd))."""
+
+    @abstractmethod
+    def momentum_regressor(self, q, qd) -> np.ndarray:
+        """Ya (N, n, p): generalized momentum M(q) qd = Ya theta."""
+
+    @abstractmethod
+    def remainder_regressor(self, q, qd) -> np.ndarray:
+        """Yb (N, n, p) with Y theta = d/dt(Ya theta) + Yb theta."""
+
+    @abstractmethod
+    def energy_regressor(self, q, qd) -> np.ndarray:
+        """phi_H (N, p): total energy H = K + U = phi_H theta (U up to a constant)."""
+
+    @abstractmethod
+    def friction_power_regressor(self, qd) -> np.ndarray:
+        """phi_f (N, p): dissipated power qd^T f(qd) = phi_f theta."""
+
+    @abstractmethod
+    def mass_matrix(self, q, theta=None) -> np.ndarray:
+        """Joint-space inertia M(q) (N, n, n) for parameters theta (default: truth)."""
+
+    @abstractmethod
+    def bias_torque(self, q, qd, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
+        """Everything but M(q) qdd in the torque (N, n): Coriolis, gravity, friction."""
+
+    # -- derived ------------------------------------------------------------------------
+    def _theta(self, theta) -> np.ndarray:
+        if theta is None:
+            return self.theta_true
+        t = as_float_array(theta, "theta")
+        if t.shape != (self.p,):
+            raise InputError(f"theta must have shape ({self.p},) for {self.name}, got {t.shape}.")
+        return t
+
+    def inverse_dynamics(self, q, qd, qdd, theta=None) -> np.ndarray:
+        """tau = Y(q, qd, qdd) theta, shape (N, n)."""
+        return self.regressor(q, qd, qdd) @ self._theta(theta)
+
+    def forward_dynamics(self, q, qd, tau, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
+        """qdd = M(q)^-1 (tau - bias), shape (N, n)."""
+        (q, qd, tau), _ = self._states(q, qd, tau, names=("q", "qd", "tau"))
+        rhs = tau - self.bias_torque(q, qd, theta, coulomb_width)
+        return np.linalg.solve(self.mass_matrix(q, theta), rhs[..., None])[..., 0]
+
+    def energy(self, q, qd, theta=None) -> np.ndarray:
+        """H = K + U (N,)."""
+        return self.energy_regressor(q, qd) @ self._theta(theta)
+
+    def describe(self) -> str:
+        rows = [f"{self.name}: {self.n_joints} joints, {self.p} parameters"]
+        for nm, u, t, a in zip(self.param_names, self.param_units, self.theta_true, self.theta_prior, strict=True):
+            rows.append(f"  {nm:<8} [{u}]  true {t:.6g}  prior {a:.6g}")
+        return "\n".join(rows)
