@@ -126,4 +126,5 @@ class Ellipsoid:
         return self.center + (self._chol @ np.vstack([np.cos(t), np.sin(t)])).T
 
     def __repr__(self) -> str:
-        return f"Ellipsoid(dim={self.dim}, log_volume={self.log_volume():.4g}, center={np.array2string(self.center, precision=4)})"
+        c = np.array2string(self.center, precision=4)
+        return f"Ellipsoid(dim={self.dim}, log_volume={self.log_volume():.4g}, center={c})"
