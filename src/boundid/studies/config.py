@@ -1,0 +1,232 @@
+"""Study files (TOML) parsed into validated, typed configuration.
+
+A study names the robot, the experiment (simulated, or a measured-data file), the preprocessing,
+the regression models, the estimators with their settings, the exact optima to compute, and the
+seed. See ``studies/*.toml`` for commented examples.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from boundid.errors import StudyError
+from boundid.experiments.measurement import TorqueNoise
+from boundid.studies.schema import Section
+
+ROBOTS = ("direct_drive", "h4", "linear_toy")
+REGRESSIONS = ("inverse_dynamic", "filtered_dynamic", "supplied_energy", "filtered_power")
+METHODS = ("obe", "rls", "ols", "wls", "kalman")
+SDP_SETS = ("outer", "inner", "john")
+
+
+@dataclass(frozen=True)
+class MeasuredData:
+    """A recording: CSV or Parquet with time, joint positions [rad] and torques [N m]."""
+
+    file: Path
+    time: str
+    q: tuple[str, ...]
+    tau: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class ExperimentConfig:
+    source: str  # "simulate" | "measured"
+    control: str = "open_loop"  # "open_loop" (paper 001 torques) | "closed_loop" (PI, Fourier trajectory)
+    duration_s: float = 10.0
+    sample_period_s: float = 0.0025
+    coulomb_width_rad_s: float = 0.01
+    torque_noise: TorqueNoise = TorqueNoise()
+    encoder_counts_per_rev: int | None = None
+    structural_error: float = 0.0
+    validation_duration_s: float = 0.0
+    options: dict = field(default_factory=dict)
+    measured: MeasuredData | None = None
+
+
+@dataclass(frozen=True)
+class PreprocessingConfig:
+    velocity: str = "backward_difference"  # | "central_difference"
+    lowpass_cutoff_hz: float | None = None
+    decimation: int = 1
+    lambda_rad_s: float = 50.0
+    discretisation: str = "tustin"  # | "paper"
+
+
+@dataclass(frozen=True)
+class EstimatorConfig:
+    method: str
+    label: str
+    regressions: tuple[str, ...]
+    options: dict
+
+
+@dataclass(frozen=True)
+class ExactConfig:
+    regression: str | None = None
+    lp_bounds: bool = True
+    sdp: tuple[str, ...] = ()
+    projections: tuple[tuple[str, str], ...] = ()
+    e_max: float | None = None
+
+
+@dataclass(frozen=True)
+class StudyConfig:
+    name: str
+    title: str
+    description: str
+    seed: int
+    robot: str
+    robot_options: dict
+    experiment: ExperimentConfig
+    preprocessing: PreprocessingConfig
+    regressions: tuple[str, ...]
+    estimators: tuple[EstimatorConfig, ...]
+    exact: ExactConfig
+    paper: dict
+    file: Path
+
+    def with_seed(self, seed: int) -> StudyConfig:
+        from dataclasses import replace
+
+        return replace(self, seed=int(seed))
+
+
+_ESTIMATOR_OPTIONS = {
+    # method: {option: (type, allowed values or None)}
+    "obe": {"form": (str, ("standard", "factorized")), "criterion": (str, ("volume", "trace", "dasgupta-huang")),
+            "e_max": (float, None), "prior_scale": (float, None), "friction_prior_range": (float, None)},
+    "rls": {"theta0": (float, None), "P0": (float, None), "forgetting": (float, None)},
+    "ols": {"level": (float, None)},
+    "wls": {"level": (float, None)},
+    "kalman": {"theta0": (float, None), "P0": (float, None), "R": (float, None), "Q": (float, None)},
+}
+
+
+def _estimator(sec: Section, regressions: tuple[str, ...]) -> EstimatorConfig:
+    method = sec.str("method", choices=METHODS)
+    regs = tuple(sec.list("regressions", choices=regressions))
+    if not regs:
+        raise sec.error("regressions", "names no regression model.")
+    label = sec.str("label", default=method.upper())
+    options = {}
+    for key, (typ, allowed) in _ESTIMATOR_OPTIONS[method].items():
+        if not sec.has(key):
+            continue
+        options[key] = sec.float(key) if typ is float else sec.str(key, choices=allowed)
+    sec.check_unknown()
+    return EstimatorConfig(method, label, regs, options)
+
+
+def _experiment(sec: Section, base: Path) -> ExperimentConfig:
+    source = sec.str("source", choices=("simulate", "measured"))
+    if source == "measured":
+        m = sec.section("measured", required=True)
+        cols = m.section("columns", required=True)
+        measured = MeasuredData(
+            file=(base / m.str("file")).resolve(),
+            time=cols.str("time"),
+            q=tuple(cols.list("q")),
+            tau=tuple(cols.list("tau")),
+        )
+        cols.check_unknown()
+        m.check_unknown()
+        if len(measured.q) != len(measured.tau):
+            raise cols.error("tau", f"names {len(measured.tau)} columns but q names {len(measured.q)}.")
+        sec.check_unknown()
+        return ExperimentConfig(source="measured", measured=measured)
+    noise = sec.section("noise")
+    tn = noise.section("torque")
+    torque_noise = TorqueNoise(
+        kind=tn.str("kind", "none", choices=("none", "gaussian", "uniform", "bounded_outliers")),
+        level=tn.float("level", 0.0, lo=0.0),
+        outlier_rate=tn.float("outlier_rate", 0.0, lo=0.0, hi=0.5),
+        outlier_size=tn.float("outlier_size", 0.0, lo=0.0),
+    )
+    tn.check_unknown()
+    counts = noise.int("encoder_counts_per_rev", None, lo=2)
+    noise.check_unknown()
+    exp = ExperimentConfig(
+        source="simulate",
+        control=sec.str("control", "open_loop", choices=("open_loop", "closed_loop")),
+        duration_s=sec.float("duration_s", 10.0, lo=0.0, strict_lo=True),
+        sample_period_s=sec.float("sample_period_s", 0.0025, lo=0.0, strict_lo=True),
+        coulomb_width_rad_s=sec.float("coulomb_width_rad_s", 0.01, lo=0.0),
+        torque_noise=torque_noise,
+        encoder_counts_per_rev=counts,
+        structural_error=sec.float("structural_error", 0.0, lo=0.0),
+        validation_duration_s=sec.float("validation_duration_s", 0.0, lo=0.0),
+        options=dict(sec.raw("options", {})),
+    )
+    sec.check_unknown()
+    return exp
+
+
+def load_study(path: str | Path) -> StudyConfig:
+    """Parse and validate a study file; raises :class:`StudyError` naming the file and key."""
+    path = Path(path)
+    if not path.is_file():
+        raise StudyError(f"{path}: no such study file (studies live in studies/*.toml).")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise StudyError(f"{path}: not valid TOML: {exc}") from None
+    top = Section(data, "", path)
+    st = top.section("study", required=True)
+    rb = top.section("robot", required=True)
+    robot = rb.str("model", choices=ROBOTS)
+    robot_options = dict(rb.raw("options", {}))
+    rb.check_unknown()
+    experiment = _experiment(top.section("experiment", required=True), path.parent)
+    pp = top.section("preprocessing")
+    preprocessing = PreprocessingConfig(
+        velocity=pp.str("velocity", "backward_difference", choices=("backward_difference", "central_difference")),
+        lowpass_cutoff_hz=pp.float("lowpass_cutoff_hz", None, lo=0.0, strict_lo=True),
+        decimation=pp.int("decimation", 1, lo=1),
+        lambda_rad_s=pp.float("lambda_rad_s", 50.0, lo=0.0, strict_lo=True),
+        discretisation=pp.str("discretisation", "tustin", choices=("tustin", "paper")),
+    )
+    pp.check_unknown()
+    regressions = tuple(top.list("regressions", choices=REGRESSIONS))
+    if not regressions:
+        raise top.error("regressions", f"names no regression model; choose among {', '.join(REGRESSIONS)}.")
+    estimators = tuple(_estimator(s, regressions) for s in top.sections("estimators"))
+    if not estimators:
+        raise top.error("estimators", "no [[estimators]] table: a study needs at least one estimator.")
+    labels = [e.label for e in estimators]
+    if len(set(labels)) != len(labels):
+        raise top.error("estimators", f"labels must be unique, got {labels}; set `label` on each.")
+    ex = top.section("exact")
+    exact = ExactConfig(
+        regression=ex.str("regression", None, choices=regressions),
+        lp_bounds=ex.bool("lp_bounds", True),
+        sdp=tuple(ex.list("sdp", [], choices=SDP_SETS)),
+        projections=tuple(tuple(pair) for pair in ex.list("projections", [], of=list)),
+        e_max=ex.float("e_max", None, lo=0.0, strict_lo=True),
+    )
+    for pair in exact.projections:
+        if len(pair) != 2 or not all(isinstance(x, str) for x in pair):
+            raise ex.error("projections", f"each entry must be a pair of parameter names, got {pair!r}.")
+    if exact.regression is not None and exact.e_max is None:
+        raise ex.error("e_max", "is required with `regression`: the exact polytope needs the error bound (N m).")
+    ex.check_unknown()
+    cfg = StudyConfig(
+        name=st.str("name"),
+        title=st.str("title"),
+        description=st.str("description", ""),
+        seed=st.int("seed", 0, lo=0),
+        robot=robot,
+        robot_options=robot_options,
+        experiment=experiment,
+        preprocessing=preprocessing,
+        regressions=regressions,
+        estimators=estimators,
+        exact=exact,
+        paper=dict(top.raw("paper", {})),
+        file=path,
+    )
+    st.check_unknown()
+    top.check_unknown()
+    return cfg
