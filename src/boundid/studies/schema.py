@@ -6,6 +6,7 @@ against its expected type and range here.
 
 from __future__ import annotations
 
+import builtins
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -45,7 +46,7 @@ class Section:
         v = self._get(key, default)
         if v is None:
             return v
-        if not isinstance(v, str):
+        if not isinstance(v, builtins.str):
             raise self.error(key, f"must be a string, got {v!r}.")
         if choices is not None and v not in (allowed := tuple(choices)):
             raise self.error(key, f"must be one of {', '.join(map(repr, allowed))}; got {v!r}.")
@@ -56,9 +57,9 @@ class Section:
         v = self._get(key, default)
         if v is None:
             return v
-        if isinstance(v, bool) or not isinstance(v, int | float):
+        if isinstance(v, builtins.bool) or not isinstance(v, builtins.int | builtins.float):
             raise self.error(key, f"must be a number, got {v!r}.")
-        v = float(v)
+        v = builtins.float(v)
         if lo is not None and (v < lo or (strict_lo and v == lo)):
             raise self.error(key, f"must be {'>' if strict_lo else '>='} {lo}, got {v}.")
         if hi is not None and v > hi:
@@ -69,7 +70,7 @@ class Section:
         v = self._get(key, default)
         if v is None:
             return v
-        if isinstance(v, bool) or not isinstance(v, int):
+        if isinstance(v, builtins.bool) or not isinstance(v, builtins.int):
             raise self.error(key, f"must be an integer, got {v!r}.")
         if lo is not None and v < lo:
             raise self.error(key, f"must be >= {lo}, got {v}.")
@@ -77,14 +78,15 @@ class Section:
 
     def bool(self, key: str, default: Any = _MISSING) -> bool:
         v = self._get(key, default)
-        if not isinstance(v, bool):
+        if not isinstance(v, builtins.bool):
             raise self.error(key, f"must be true or false, got {v!r}.")
         return v
 
-    def list(self, key: str, default: Any = _MISSING, of: type | tuple = str,
+    def list(self, key: str, default: Any = _MISSING, of: type | tuple = builtins.str,
              choices: Iterable[str] | None = None) -> list:
         v = self._get(key, default)
-        if not isinstance(v, list) or not all(isinstance(x, of) and not isinstance(x, bool) for x in v):
+        ok = isinstance(v, builtins.list) and all(isinstance(x, of) and not isinstance(x, builtins.bool) for x in v)
+        if not ok:
             kind = of.__name__ if isinstance(of, type) else "/".join(t.__name__ for t in of)
             raise self.error(key, f"must be a list of {kind}, got {v!r}.")
         if choices is not None:
@@ -101,7 +103,7 @@ class Section:
     def sections(self, key: str) -> list[Section]:
         """An array of tables ([[key]] in TOML)."""
         v = self._get(key, [])
-        if not isinstance(v, list):
+        if not isinstance(v, builtins.list):
             raise self.error(key, "must be an array of tables ([[...]]).")
         return [Section(x, f"{self.path + '.' if self.path else ''}{key}[{i}]", self.file) for i, x in enumerate(v)]
 
