@@ -3,3 +3,7 @@
 from boundid.models.base import RobotModel, coulomb
 
 __all__ = ["RobotModel", "coulomb"]
+from boundid.models.direct_drive import DirectDriveArm  # noqa: E402
+from boundid.models.toy import LinearToy  # noqa: E402
+
+__all__ += ["DirectDriveArm", "LinearToy"]
