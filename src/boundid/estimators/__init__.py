@@ -10,3 +10,9 @@ __all__ = ["Estimate", "History"]
 from boundid.estimators.obe import OBE  # noqa: E402
 
 __all__ += ["OBE"]
+
+from boundid.estimators.kalman import KalmanEstimator  # noqa: E402
+from boundid.estimators.least_squares import RankDeficientError, ols, wls  # noqa: E402
+from boundid.estimators.rls import RLS  # noqa: E402
+
+__all__ += ["KalmanEstimator", "RLS", "RankDeficientError", "ols", "wls"]

@@ -1,0 +1,268 @@
+"""Batch least squares: ordinary (OLS) and Gautier's weighted least squares (IDIM-WLS).
+
+Both solve y = W theta + e through the thin SVD W = U diag(s) V^T (the same factorisation
+``numpy.linalg.lstsq`` uses), which also gives the rank, the condition number and, when W is rank
+deficient, the null space naming the parameter combinations the data cannot separate.
+
+Statistics (Gaussian, homoscedastic noise after weighting; REFERENCES: Gautier & Khalil):
+
+- residual variance      sigma^2 = |y - W theta|^2 / (N - p)
+- covariance             C = sigma^2 (W^T W)^-1 = sigma^2 V diag(s^-2) V^T
+- standard deviations    sigma_j = sqrt(C_jj), relative  %sigma_j = 100 sigma_j / |theta_j|
+- intervals              theta_j -+ t_{(1+level)/2, N-p} sigma_j                   (Student t)
+- ellipsoid              {x : (x - theta)^T C^-1 (x - theta) <= chi2_{level, p}}   (chi-square, p dof)
+
+These are *statistical* sets (kind="statistical", info["guaranteed"] = False): they hold the
+truth with probability ``level`` under the noise model, never with certainty.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.linalg
+from scipy import stats
+
+from boundid._validation import as_regression
+from boundid.errors import InputError
+from boundid.estimators.estimate import Estimate
+from boundid.sets.ellipsoid import Ellipsoid
+
+
+class RankDeficientError(InputError):
+    """W does not determine every parameter: some combinations lie in its null space.
+
+    Attributes
+    ----------
+    combinations : list[str]   the unidentifiable combinations, e.g. ``["a - b"]``
+    null_space : (k, p)        the same combinations as coefficient rows
+    rank : int                 numerical rank of W
+    """
+
+    def __init__(self, message: str, combinations: list[str], null_space: np.ndarray, rank: int):
+        super().__init__(message)
+        self.combinations = combinations
+        self.null_space = null_space
+        self.rank = rank
+
+
+def check_level(level: float) -> float:
+    """A confidence level strictly between 0 and 1."""
+    try:
+        lv = float(level)
+    except (TypeError, ValueError):
+        raise InputError(f"level must be a number in (0, 1), got {level!r}.") from None
+    if not 0.0 < lv < 1.0:
+        raise InputError(f"level must lie strictly between 0 and 1 (e.g. 0.95), got {level}.")
+    return lv
+
+
+def check_names(names, p: int) -> tuple[str, ...] | None:
+    """``None`` or a tuple of ``p`` parameter names."""
+    if names is None:
+        return None
+    names = tuple(str(n) for n in names)
+    if len(names) != p:
+        raise InputError(f"{len(names)} parameter names given for {p} parameters; give one name per column of W.")
+    return names
+
+
+def format_combination(coef: np.ndarray, names: tuple[str, ...]) -> str:
+    """``[1, -1, 0]`` with names (a, b, c) -> ``"a - b"``; other coefficients as ``0.5*c``."""
+    parts = []
+    for c, name in zip(coef, names, strict=True):
+        if c == 0.0:
+            continue
+        mag = abs(c)
+        term = name if mag == 1.0 else f"{mag:.6g}*{name}"
+        if not parts:
+            parts.append(term if c > 0 else f"-{term}")
+        else:
+            parts.append(f"{'+' if c > 0 else '-'} {term}")
+    return " ".join(parts)
+
+
+def null_combinations(null_rows: np.ndarray, names: tuple[str, ...]) -> tuple[np.ndarray, list[str]]:
+    """Readable basis of a null space given as orthonormal rows (k, p).
+
+    The basis is brought to reduced form on k pivot parameters chosen by QR with column pivoting
+    (coefficient 1 on the pivot, 0 on the other pivots), coefficients below 1e-9 are zeroed and
+    each row's first nonzero coefficient is made positive. Returns (rows, strings).
+    """
+    k = null_rows.shape[0]
+    _, _, piv = scipy.linalg.qr(null_rows, pivoting=True)
+    B = np.linalg.solve(null_rows[:, piv[:k]], null_rows)
+    B[np.abs(B) < 1e-9] = 0.0
+    B = np.round(B, 9)
+    for i in range(k):
+        first = B[i][np.nonzero(B[i])[0][0]]
+        B[i] *= np.sign(first)
+    return B, [format_combination(row, names) for row in B]
+
+
+def _names_or_default(names: tuple[str, ...] | None, p: int) -> tuple[str, ...]:
+    return names if names is not None else tuple(f"theta{j + 1}" for j in range(p))
+
+
+def _svd_solve(W: np.ndarray, y: np.ndarray, names: tuple[str, ...] | None, what: str):
+    """theta, (W^T W)^-1, singular values; raises RankDeficientError naming the null space."""
+    U, s, Vt = np.linalg.svd(W, full_matrices=False)
+    N, p = W.shape
+    tol = s[0] * max(N, p) * np.finfo(float).eps  # numpy.linalg.matrix_rank's default
+    rank = int(np.sum(s > tol))
+    if rank < p:
+        B, combos = null_combinations(Vt[rank:], _names_or_default(names, p))  # N > p: Vt is p x p
+        raise RankDeficientError(
+            f"{what} is rank deficient: rank {rank} < {p} parameters (smallest singular value "
+            f"{s[-1]:.3g}, tolerance {tol:.3g}). These parameter combinations leave W theta unchanged and "
+            f"cannot be identified: {'; '.join(combos)}. Regroup them into base parameters (keep one "
+            "parameter of each combination) or use an excitation that separates them.",
+            combos,
+            B,
+            rank,
+        )
+    theta = Vt.T @ ((U.T @ y) / s)
+    inv_info = (Vt.T / s**2) @ Vt
+    return theta, 0.5 * (inv_info + inv_info.T), s
+
+
+def _statistical_estimate(method, theta, cov, s, dof, level, names, n_samples, t0, extra) -> Estimate:
+    p = theta.shape[0]
+    std = np.sqrt(np.diag(cov))
+    with np.errstate(divide="ignore"):
+        rel = 100.0 * std / np.abs(theta)
+    tq = stats.t.ppf(0.5 * (1.0 + level), dof)
+    chi2 = stats.chi2.ppf(level, p)
+    try:
+        ell = Ellipsoid(theta, chi2 * cov)
+    except InputError:
+        raise RankDeficientError(
+            f"{method}: the covariance is numerically singular (cond(W) = {s[0] / s[-1]:.3g}); the parameters "
+            "are not separately identifiable at double precision. Regroup parameters or improve the excitation.",
+            [],
+            np.zeros((0, p)),
+            p,
+        ) from None
+    info = {
+        "guaranteed": False,
+        "n_samples": int(n_samples),
+        "dof": int(dof),
+        "std_err": std,
+        "rel_std_pct": rel,
+        "cov": cov,
+        "condition_number": float(s[0] / s[-1]),
+        **extra,
+        "time_s": time.perf_counter() - t0,
+    }
+    return Estimate(
+        method=method,
+        center=theta,
+        ellipsoid=ell,
+        intervals=(theta - tq * std, theta + tq * std),
+        kind="statistical",
+        level=level,
+        names=names,
+        info=info,
+    )
+
+
+def _check_dof(N: int, p: int, what: str) -> int:
+    if N <= p:
+        raise InputError(
+            f"{what} has {N} rows for {p} parameters; the noise variance needs N > p "
+            "(at least one residual degree of freedom). Add samples."
+        )
+    return N - p
+
+
+def ols(W, y, level: float = 0.95, names=None) -> Estimate:
+    """Ordinary least squares with Student-t intervals and a chi-square confidence ellipsoid.
+
+    Parameters
+    ----------
+    W : (N, p)    observation matrix
+    y : (N,)      measurements (units of y)
+    level : float confidence level of the intervals and of the ellipsoid, in (0, 1)
+    names : p parameter names (used in the report and in the rank-deficiency message)
+
+    Returns an :class:`Estimate` with kind="statistical"; ``info`` holds n_samples, dof = N - p,
+    sigma (residual standard deviation, units of y), rss, std_err (p,), rel_std_pct (p,),
+    cov (p, p), condition_number of W, time_s and guaranteed=False.
+    Raises :class:`RankDeficientError` (an InputError) when W has rank < p.
+    """
+    t0 = time.perf_counter()
+    W, y = as_regression(W, y)
+    N, p = W.shape
+    level = check_level(level)
+    names = check_names(names, p)
+    dof = _check_dof(N, p, "W")
+    theta, inv_info, s = _svd_solve(W, y, names, "W")
+    r = y - W @ theta
+    rss = float(r @ r)
+    sigma2 = rss / dof
+    return _statistical_estimate(
+        "OLS", theta, sigma2 * inv_info, s, dof, level, names, N, t0, {"sigma": np.sqrt(sigma2), "rss": rss}
+    )
+
+
+def wls(W, y, groups, level: float = 0.95, names=None) -> Estimate:
+    """Weighted least squares with per-group noise levels (Gautier's IDIM-WLS).
+
+    1. OLS on all rows: theta_OLS, residuals r = y - W theta_OLS.
+    2. For each group j (rows R_j, N_j = |R_j|, typically one joint):
+           sigma_j^2 = |r_{R_j}|^2 / (N_j - p)
+       (Gautier & Khalil's per-joint estimate; here from the global OLS residuals). Needs N_j > p.
+    3. Scale each row of group j by 1/sigma_j and solve OLS on the scaled problem
+       (W_s, y_s); covariance, intervals and ellipsoid are those of that OLS
+       (its residual variance, ~1 when the groups' noise levels are right).
+
+    Parameters
+    ----------
+    W : (N, p), y : (N,)   the regression
+    groups : (N,)          group label of each row, e.g. ``Regression.joint``
+    level, names           as in :func:`ols`
+
+    ``info`` adds sigma_groups {label: sigma_j} (units of y), groups (labels, sorted),
+    sigma_group_values (array in that order), and condition_number of the weighted W.
+    """
+    t0 = time.perf_counter()
+    W, y = as_regression(W, y)
+    N, p = W.shape
+    level = check_level(level)
+    names = check_names(names, p)
+    g = np.asarray(groups)
+    if g.shape != (N,):
+        raise InputError(f"groups must have shape ({N},) (one label per row of W), got {g.shape}.")
+    if g.dtype.kind == "f" and not np.all(np.isfinite(g)):
+        raise InputError("groups contains NaN or infinite labels; give every row an integer group (joint) label.")
+    _check_dof(N, p, "W")
+    labels, inverse, counts = np.unique(g, return_inverse=True, return_counts=True)
+    small = labels[counts <= p]
+    if small.size:
+        raise InputError(
+            f"groups {small.tolist()} have <= {p} rows; sigma_j^2 = |r_j|^2 / (N_j - p) needs N_j > p rows "
+            "per group. Merge small groups or use ols()."
+        )
+    theta0, _, _ = _svd_solve(W, y, names, "W")
+    r = y - W @ theta0
+    ss = np.bincount(inverse, weights=r * r, minlength=labels.size)
+    sig = np.sqrt(ss / (counts - p))
+    if np.any(sig <= 0.0):
+        raise InputError(
+            f"groups {labels[sig <= 0].tolist()} are fitted exactly (zero residuals), so their weight 1/sigma_j "
+            "is infinite. The data look noise-free: use ols() or a set-membership estimator."
+        )
+    row_w = 1.0 / sig[inverse]
+    Ws, ys = W * row_w[:, None], y * row_w
+    est = ols(Ws, ys, level=level, names=names)
+    est.method = "WLS"
+    est.info.update(
+        {
+            "sigma_groups": {lab.item(): float(s) for lab, s in zip(labels, sig, strict=True)},
+            "groups": labels,
+            "sigma_group_values": sig,
+            "time_s": time.perf_counter() - t0,
+        }
+    )
+    return est

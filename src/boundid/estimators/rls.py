@@ -1,0 +1,321 @@
+"""Recursive least squares (RLS) with exponential forgetting, and its compiled loop.
+
+The direct-drive paper (seed 001, eqs. 18-21) runs the standard RLS on each regression model with
+theta(0) = 0 and P(0) = 1000 I; those are this class's defaults. One step, for a row w (p,) and a
+measurement y, with forgetting factor lambda in (0, 1]:
+
+    e     = y - w^T theta                     (a-priori error)
+    u     = P w,  d = lambda + w^T u
+    theta = theta + u e / d
+    P     = (P - u u^T / d) / lambda
+
+The same loop, with a per-row measurement variance r (d = lambda r + w^T u) and an optional
+random-walk covariance Q added to P before each step, is the linear Kalman filter with the
+parameters as state (:mod:`boundid.estimators.kalman` reuses :func:`filter_loop`).
+
+Confidence set. RLS minimises J(theta) = sum_i lambda^(k-i) (y_i - w_i^T theta)^2 + lambda^k
+(theta - theta0)^T P0^-1 (theta - theta0); its minimum obeys J_k = lambda (J_{k-1} + e^2 / d), and
+P is the inverse of its Hessian / 2. With n_eff = sum_i lambda^(k-i) (= k when lambda = 1) the
+residual variance estimate is sigma^2 = J_k / (n_eff - p), the covariance sigma^2 P, the ellipsoid
+{x : (x - theta)^T (sigma^2 P)^-1 (x - theta) <= chi2_{level, p}} and the intervals
+theta_j -+ t_{(1+level)/2, n_eff - p} sigma sqrt(P_jj). With a negligible prior (P0 -> infinity)
+and lambda = 1 these are exactly the OLS ones (:func:`boundid.estimators.least_squares.ols`).
+"""
+
+from __future__ import annotations
+
+import time
+from abc import ABC, abstractmethod
+
+import numpy as np
+from numba import njit
+from scipy import stats
+
+from boundid._validation import as_regression, as_spd, as_vector
+from boundid.errors import InputError
+from boundid.estimators.estimate import Estimate, History
+from boundid.estimators.least_squares import check_level, check_names
+from boundid.sets.ellipsoid import Ellipsoid, log_unit_ball_volume
+
+PAPER_P0 = 1000.0  # direct-drive paper, section 6: P(0) = diag(1000, ..., 1000), theta(0) = 0
+
+
+@njit(cache=True)
+def filter_loop(W, y, r, inv_lam, Q, theta, P, state, record_every, n0):
+    """Run the RLS / Kalman recursion over the rows of W, in place on ``theta`` and ``P``.
+
+    W : (N, p) C-contiguous, y : (N,)
+    r : (N,) per-row measurement variance, or (1,) for one value for every row
+    inv_lam : 1 / forgetting factor (1.0 for none)
+    Q : (p, p) random-walk covariance added to P before each row, or (0, 0) for none
+    theta : (p,), P : (p, p)   state, updated in place
+    state : (3,) [ln det P, J, n_eff], updated in place (ln det P is recomputed when Q is used)
+    record_every : record the state after every sample whose 1-based count is a multiple of it
+                   (0: never); n0 = samples already processed before this call
+
+    Returns (index, centers, log_det_P, J, n_eff) at the recorded samples.
+    """
+    N, p = W.shape
+    lam = 1.0 / inv_lam
+    per_row_r = r.shape[0] > 1
+    has_q = Q.shape[0] == p
+    n_rec = 0
+    if record_every > 0:
+        n_rec = (n0 + N) // record_every - n0 // record_every
+    rec_idx = np.empty(n_rec, dtype=np.int64)
+    rec_c = np.empty((n_rec, p))
+    rec_ld = np.empty(n_rec)
+    rec_j = np.empty(n_rec)
+    rec_n = np.empty(n_rec)
+    u = np.empty(p)
+    log_lam_p = p * np.log(lam)
+    logdet, J, neff = state[0], state[1], state[2]
+    m = 0
+    for k in range(N):
+        rk = r[k] if per_row_r else r[0]
+        if has_q:
+            for i in range(p):
+                for j in range(p):
+                    P[i, j] += Q[i, j]
+        s = 0.0
+        e = y[k]
+        for i in range(p):
+            acc = 0.0
+            for j in range(p):
+                acc += P[i, j] * W[k, j]
+            u[i] = acc
+            s += W[k, i] * acc
+            e -= W[k, i] * theta[i]
+        d = lam * rk + s
+        c = 1.0 / d
+        ec = e * c
+        for i in range(p):
+            theta[i] += u[i] * ec
+        for i in range(p):
+            for j in range(p):
+                P[i, j] = (P[i, j] - (u[i] * u[j]) * c) * inv_lam
+        # det(P_new) = det(P) (lambda r / d) lambda^-p (matrix determinant lemma)
+        logdet += np.log(lam * rk * c) - log_lam_p
+        J = lam * (J + e * ec)
+        neff = lam * neff + 1.0
+        if record_every > 0 and (n0 + k + 1) % record_every == 0:
+            if has_q:
+                logdet = np.linalg.slogdet(P)[1]
+            rec_idx[m] = n0 + k
+            rec_c[m] = theta
+            rec_ld[m] = logdet
+            rec_j[m] = J
+            rec_n[m] = neff
+            m += 1
+    if has_q:
+        logdet = np.linalg.slogdet(P)[1]
+    state[0], state[1], state[2] = logdet, J, neff
+    return rec_idx, rec_c, rec_ld, rec_j, rec_n
+
+
+class LinearFilter(ABC):
+    """State, history and bookkeeping shared by :class:`RLS` and the Kalman estimator.
+
+    Holds theta (p,), P (p, p), ln det P, the weighted cost J, the effective sample count n_eff,
+    the number of samples n and the recorded history chunks.
+    """
+
+    method = "linear filter"
+
+    def __init__(self, p, theta0, P0, record_every, names, level):
+        if not (isinstance(p, int | np.integer) and p >= 1):
+            raise InputError(f"p (number of parameters) must be a positive integer, got {p!r}.")
+        self.p = int(p)
+        theta0 = np.zeros(self.p) if theta0 is None else theta0
+        self.theta = as_vector(theta0, "theta0", self.p).copy()
+        if P0 is None:
+            P0 = PAPER_P0
+        P0 = np.asarray(P0, dtype=float)
+        if P0.ndim == 0:
+            if not (np.isfinite(P0) and P0 > 0):
+                raise InputError(f"P0 must be > 0 (a scalar means P0 * I), got {P0}.")
+            P0 = float(P0) * np.eye(self.p)
+        self.P = as_spd(P0, "P0", self.p).copy()
+        if not (isinstance(record_every, int | np.integer) and record_every >= 0):
+            raise InputError(f"record_every must be an integer >= 0 (0: no history), got {record_every!r}.")
+        self.record_every = int(record_every)
+        self.names = check_names(names, self.p)
+        self.level = check_level(level)
+        self.logdet = float(np.linalg.slogdet(self.P)[1])
+        self.J = 0.0
+        self.n_eff = 0.0
+        self.n = 0
+        self.time_s = 0.0
+        self._chunks: list[tuple[np.ndarray, ...]] = []
+
+    def _check_row(self, w, y) -> tuple[np.ndarray, float]:
+        w = as_vector(w, "w", self.p)
+        y = as_vector(y, "y", 1)
+        return w, float(y[0])
+
+    def _check_batch(self, W, y) -> tuple[np.ndarray, np.ndarray]:
+        W, y = as_regression(W, y)
+        if W.shape[1] != self.p:
+            raise InputError(f"W must have {self.p} columns (one per parameter), got {W.shape[1]}.")
+        return np.ascontiguousarray(W), y
+
+    def _run(self, W, y, r, inv_lam, Q):
+        """The compiled loop on the current state; appends the recorded history."""
+        theta, P = self.theta.copy(), np.ascontiguousarray(self.P).copy()
+        state = np.array([self.logdet, self.J, self.n_eff])
+        rec = filter_loop(W, y, r, inv_lam, Q, theta, P, state, self.record_every, self.n)
+        self.theta, self.P = theta, P
+        self.logdet, self.J, self.n_eff = float(state[0]), float(state[1]), float(state[2])
+        self.n += W.shape[0]
+        if rec[0].size:
+            self._chunks.append(rec)
+
+    def _record_one(self):
+        """After a single-row step: record the state if this sample is due."""
+        if self.record_every > 0 and self.n % self.record_every == 0:
+            self._chunks.append(
+                (
+                    np.array([self.n - 1]),
+                    self.theta[None, :].copy(),
+                    np.array([self.logdet]),
+                    np.array([self.J]),
+                    np.array([self.n_eff]),
+                )
+            )
+
+    @abstractmethod
+    def _log_volumes(self, logdet, J, neff) -> np.ndarray:
+        """ln volume of the confidence ellipsoid at recorded samples, from ln det P, J and n_eff."""
+
+    @property
+    def history(self) -> History | None:
+        """Recorded centres and ln volumes of the confidence ellipsoid (None if nothing recorded)."""
+        if not self._chunks:
+            return None
+        idx, c, ld, J, ne = (np.concatenate([ch[i] for ch in self._chunks]) for i in range(5))
+        return History(index=idx, centers=c, log_volumes=self._log_volumes(ld, J, ne))
+
+    def _estimate(self, method, cov, scale2, quantile, dof, extra) -> Estimate:
+        """Estimate with ellipsoid {(x - c)^T cov^-1 (x - c) <= scale2} and intervals c -+ quantile std.
+
+        ``cov=None`` (noise variance not estimable yet): no ellipsoid, intervals (-inf, inf).
+        """
+        theta = self.theta.copy()
+        ev = np.linalg.eigvalsh(self.P)
+        if cov is None:
+            cov = np.full((self.p, self.p), np.nan)
+            std = np.full(self.p, np.nan)
+            ell, lo, hi = None, np.full(self.p, -np.inf), np.full(self.p, np.inf)
+        else:
+            std = np.sqrt(np.diag(cov))
+            ell, lo, hi = Ellipsoid(theta, scale2 * cov), theta - quantile * std, theta + quantile * std
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = 100.0 * std / np.abs(theta)
+        info = {
+            "guaranteed": False,
+            "n_samples": self.n,
+            "dof": dof,
+            "std_err": std,
+            "rel_std_pct": rel,
+            "cov": cov,
+            # sqrt(cond P) = cond(W) of the rows seen so far when the prior is negligible
+            "condition_number": float(np.sqrt(ev[-1] / ev[0])),
+            "time_s": self.time_s,
+            **extra,
+        }
+        return Estimate(
+            method=method,
+            center=theta,
+            ellipsoid=ell,
+            intervals=(lo, hi),
+            kind="statistical",
+            level=self.level,
+            names=self.names,
+            history=self.history,
+            info=info,
+        )
+
+
+class RLS(LinearFilter):
+    """Recursive least squares with forgetting factor.
+
+    Parameters
+    ----------
+    p : int                    number of parameters
+    theta0 : (p,)              initial estimate; default 0 (direct-drive paper)
+    P0 : (p, p) or scalar      initial "covariance" P(0); a scalar means P0 * I; default 1000 I (paper)
+    forgetting : float         lambda in (0, 1]; 1 = no forgetting (paper)
+    record_every : int         keep the centre every that many samples in ``history`` (0: none)
+    names : p parameter names
+    level : confidence level of the reported ellipsoid and intervals
+
+    ``update(w, y)`` processes one row in numpy (the readable reference); ``fit(W, y)`` runs the
+    compiled loop over a batch and continues from the current state. Both return the state as an
+    :class:`Estimate` (``fit``) or the a-priori error (``update``).
+    """
+
+    method = "RLS"
+
+    def __init__(self, p, theta0=None, P0=None, forgetting=1.0, record_every=1, names=None, level=0.95):
+        super().__init__(p, theta0, P0, record_every, names, level)
+        lam = float(forgetting)
+        if not 0.0 < lam <= 1.0:
+            raise InputError(f"forgetting must lie in (0, 1] (1 = no forgetting), got {forgetting}.")
+        self.forgetting = lam
+
+    def update(self, w, y) -> float:
+        """Process one row w (p,) with measurement y; returns the a-priori error y - w^T theta."""
+        t0 = time.perf_counter()
+        w, y = self._check_row(w, y)
+        lam = self.forgetting
+        e = y - w @ self.theta
+        u = self.P @ w
+        d = lam + w @ u
+        self.theta = self.theta + u * (e / d)
+        self.P = (self.P - np.outer(u, u) / d) / lam
+        self.logdet += np.log(lam) - np.log(d) - self.p * np.log(lam)
+        self.J = lam * (self.J + e * e / d)
+        self.n_eff = lam * self.n_eff + 1.0
+        self.n += 1
+        self._record_one()
+        self.time_s += time.perf_counter() - t0
+        return float(e)
+
+    def fit(self, W, y) -> Estimate:
+        """Process every row of W (N, p) against y (N,) in a compiled loop; returns :meth:`estimate`."""
+        t0 = time.perf_counter()
+        W, y = self._check_batch(W, y)
+        self._run(W, y, np.ones(1), 1.0 / self.forgetting, np.zeros((0, 0)))
+        self.time_s += time.perf_counter() - t0
+        return self.estimate()
+
+    @property
+    def dof(self) -> float:
+        """Residual degrees of freedom n_eff - p."""
+        return self.n_eff - self.p
+
+    @property
+    def sigma2(self) -> float:
+        """Residual variance estimate J / (n_eff - p) (NaN until n_eff > p)."""
+        return self.J / self.dof if self.dof > 0 else np.nan
+
+    def _log_volumes(self, logdet, J, neff):
+        dof = neff - self.p
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s2 = np.where(dof > 0, J / dof, np.nan)
+        chi2 = stats.chi2.ppf(self.level, self.p)
+        return log_unit_ball_volume(self.p) + 0.5 * self.p * np.log(chi2 * s2) + 0.5 * logdet
+
+    def estimate(self) -> Estimate:
+        """The current state as a statistical Estimate (no ellipsoid until n_eff > p and J > 0)."""
+        s2 = self.sigma2
+        known = bool(np.isfinite(s2) and s2 > 0)
+        method = "RLS" if self.forgetting == 1.0 else f"RLS (lambda={self.forgetting:g})"
+        return self._estimate(
+            method,
+            s2 * self.P if known else None,
+            stats.chi2.ppf(self.level, self.p),
+            stats.t.ppf(0.5 * (1.0 + self.level), self.dof) if known else np.nan,
+            self.dof,
+            {"sigma": np.sqrt(s2), "forgetting": self.forgetting},
+        )
