@@ -1,0 +1,219 @@
+"""Tests of boundid.sets.polytope: exact LP geometry of the feasible set of strips."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog
+from scipy.spatial import ConvexHull, HalfspaceIntersection
+
+from boundid.errors import InfeasibleDataError, InputError
+from boundid.sets import Polytope
+
+
+def random_problem(rng, p, N, noise=1.0):
+    theta = rng.normal(size=p)
+    W = rng.normal(size=(N, p))
+    e = 0.5 + rng.random(N)
+    y = W @ theta + noise * e * rng.uniform(-1, 1, N)
+    return W, y, e, theta
+
+
+def brute_vertices(W, y, e):
+    """Vertices by scipy HalfspaceIntersection on ALL strip sides (no screening, no scaling),
+    interior point from a plain scipy linprog Chebyshev LP: an independent implementation."""
+    H = np.vstack([W, -W])
+    h = np.concatenate([y + e, e - y])
+    nrm = np.linalg.norm(H, axis=1)
+    res = linprog(np.r_[np.zeros(W.shape[1]), -1.0], A_ub=np.hstack([H, nrm[:, None]]), b_ub=h,
+                  bounds=[(None, None)] * W.shape[1] + [(0, None)], method="highs")
+    hs = HalfspaceIntersection(np.hstack([H, -h[:, None]]), res.x[:-1])
+    return hs.intersections
+
+
+@pytest.mark.parametrize("p,N,seed", [(2, 20, 0), (2, 200, 1), (3, 40, 2), (3, 300, 3), (4, 60, 4)])
+def test_bounds_equal_vertex_extremes(p, N, seed):
+    """bounds() == min/max over the vertices from an independent halfspace intersection (1e-7);
+    argmin/argmax rows are points of P attaining them; vertices() and volume() match too."""
+    rng = np.random.default_rng(seed)
+    W, y, e, theta = random_problem(rng, p, N)
+    P = Polytope.from_strips(W, y, e)
+    b = P.bounds()
+    V = brute_vertices(W, y, e)
+    scale = np.abs(V).max()
+    assert np.allclose(b.lo, V.min(axis=0), atol=1e-7 * scale, rtol=0)
+    assert np.allclose(b.hi, V.max(axis=0), atol=1e-7 * scale, rtol=0)
+    assert np.all(P.contains(b.vertices(), atol=1e-8))
+    assert np.allclose(np.diag(b.argmin), b.lo) and np.allclose(np.diag(b.argmax), b.hi)
+    assert np.all(b.lo <= theta) and np.all(theta <= b.hi)
+    mine = P.vertices()
+    # every brute-force vertex is one of ours and vice versa
+    d = np.linalg.norm(mine[:, None, :] - V[None, :, :], axis=2)
+    assert d.min(axis=0).max() < 1e-7 * scale and d.min(axis=1).max() < 1e-7 * scale
+    assert P.volume() == pytest.approx(ConvexHull(V).volume, rel=1e-7)
+
+
+def test_bounds_equal_naive_linprog_p14():
+    """p = 14: bounds() equal 28 independent scipy.optimize.linprog solves on the full LP."""
+    rng = np.random.default_rng(7)
+    W, y, e, _ = random_problem(rng, 14, 400)
+    b = Polytope.from_strips(W, y, e).bounds()
+    A_ub = np.vstack([W, -W])
+    b_ub = np.concatenate([y + e, e - y])
+    for j in range(14):
+        c = np.zeros(14)
+        c[j] = 1.0
+        lo = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=(None, None), method="highs").fun
+        hi = -linprog(-c, A_ub=A_ub, b_ub=b_ub, bounds=(None, None), method="highs").fun
+        assert b.lo[j] == pytest.approx(lo, abs=1e-7)
+        assert b.hi[j] == pytest.approx(hi, abs=1e-7)
+
+
+def test_box_and_halfspaces_match_linprog():
+    """Box prior and halfspaces change the bounds exactly as in a plain linprog with the same
+    constraints; a rank-deficient W closed by the box is fine (no artificial box involved)."""
+    rng = np.random.default_rng(3)
+    W = rng.normal(size=(30, 2)) @ np.array([[1.0, 0, 0, 0], [0, 1.0, 0, 0]])  # theta_3, theta_4 unseen
+    W[:, 2] = W[:, 0] + W[:, 1]  # rank 3: theta_4 only in the prior
+    y = W @ np.array([0.3, -0.2, 0.1, 0.5]) + rng.uniform(-0.2, 0.2, 30)
+    box = (np.full(4, -1.0), np.array([1.0, 1.0, 1.0, 0.8]))
+    hs = (np.array([[1.0, 1.0, 1.0, 1.0]]), np.array([1.2]))
+    P = Polytope.from_strips(W, y, 0.2, box=box, halfspaces=hs)
+    b = P.bounds()
+    A_ub = np.vstack([W, -W, hs[0]])
+    b_ub = np.concatenate([y + 0.2, 0.2 - y, hs[1]])
+    for j in range(4):
+        c = np.eye(4)[j]
+        lo = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=list(zip(*box, strict=True)), method="highs").fun
+        hi = -linprog(-c, A_ub=A_ub, b_ub=b_ub, bounds=list(zip(*box, strict=True)), method="highs").fun
+        assert b.lo[j] == pytest.approx(lo, abs=1e-8) and b.hi[j] == pytest.approx(hi, abs=1e-8)
+
+
+def test_unbounded_set_raises():
+    """A W of rank 1 in 2-D, with no prior, leaves a whole line feasible: InputError, not inf."""
+    W = np.array([[1.0, 2.0], [2.0, 4.0], [-1.0, -2.0]])
+    with pytest.raises(InputError, match="unbounded"):
+        Polytope.from_strips(W, np.zeros(3), 1.0).bounds()
+
+
+def test_consistency_matches_minimax_linprog():
+    """gamma* equals the Chebyshev-norm (minimax) fit from a plain linprog; P empty iff > 1,
+    and an inconsistent data set raises InfeasibleDataError naming the rows, not NaN."""
+    rng = np.random.default_rng(11)
+    W, y, e, _ = random_problem(rng, 3, 50)
+    y[5] += 20.0  # an outlier
+    P = Polytope.from_strips(W, y, e)
+    Wn, yn = W / e[:, None], y / e
+    res = linprog(np.r_[0, 0, 0, 1.0], A_ub=np.vstack([np.hstack([Wn, -np.ones((50, 1))]),
+                                                       np.hstack([-Wn, -np.ones((50, 1))])]),
+                  b_ub=np.r_[yn, -yn], bounds=[(None, None)] * 3 + [(0, None)], method="highs")
+    c = P.consistency()
+    assert c.gamma == pytest.approx(res.fun, rel=1e-8)
+    assert c.gamma > 1 and P.is_empty() and c.empty
+    assert 5 in c.violated
+    for method in (P.bounds, P.chebyshev_center, P.vertices):
+        with pytest.raises(InfeasibleDataError, match=r"gamma\* = .*rows"):
+            method()
+    ok = Polytope.from_strips(W[:5], y[:5], e[:5])
+    assert not ok.is_empty() and ok.consistency().gamma <= 1
+
+
+def test_empty_prior_raises():
+    """Halfspaces that contradict the box: the prior alone is empty."""
+    P = Polytope.from_strips(np.eye(2), np.zeros(2), 1.0, box=(np.zeros(2), np.ones(2)),
+                             halfspaces=(np.array([[1.0, 1.0]]), np.array([-1.0])))
+    assert P.is_empty()
+    with pytest.raises(InfeasibleDataError, match="prior"):
+        P.bounds()
+
+
+def test_chebyshev_center_of_box_and_triangle():
+    """Closed forms: a box [0,2]x[0,4] has Chebyshev radius 1 (centre x = 1); the triangle
+    x>=0, y>=0, x+y<=1 has inradius 1/(2+sqrt 2) at (r, r)."""
+    P = Polytope.from_strips(np.eye(2), np.array([1.0, 2.0]), np.array([1.0, 2.0]))
+    x, r = P.chebyshev_center()
+    assert r == pytest.approx(1.0) and x[0] == pytest.approx(1.0) and 1 - 1e-9 <= x[1] <= 3 + 1e-9
+    T = Polytope.from_strips(np.eye(2), np.full(2, 10.0), 10.0, halfspaces=(np.array([[1.0, 1.0]]), [1.0]))
+    x, r = T.chebyshev_center()
+    rin = 1 / (2 + np.sqrt(2))
+    assert r == pytest.approx(rin) and np.allclose(x, rin)
+
+
+def test_nonredundant_matches_facets():
+    """nonredundant() == the strips owning a facet of the independent ConvexHull of the vertices;
+    duplicated strips keep exactly one copy; P rebuilt from them has the same vertices."""
+    rng = np.random.default_rng(5)
+    W, y, e, _ = random_problem(rng, 3, 60)
+    W, y, e = np.vstack([W, W[:3]]), np.r_[y, y[:3]], np.r_[e, e[:3]]  # exact duplicates
+    P = Polytope.from_strips(W, y, e)
+    keep = P.nonredundant()
+    V = brute_vertices(W, y, e)
+    hull = ConvexHull(V)
+    facets = np.unique(np.round(hull.equations, 8), axis=0)
+    assert len(keep) <= len(facets)
+    sub = Polytope.from_strips(W[keep], y[keep], e[keep])
+    Vs = sub.vertices()
+    assert len(Vs) == len(P.vertices())
+    d = np.linalg.norm(Vs[:, None] - P.vertices()[None], axis=2)
+    assert d.min(axis=1).max() < 1e-8
+    for i in range(3):  # never both copies of a duplicated strip
+        assert not (i in keep and 60 + i in keep)
+    # each kept strip is needed: dropping it adds vertices outside P
+    for k in keep[:5]:
+        rest = np.setdiff1d(np.arange(len(y)), [k])
+        Vr = Polytope.from_strips(W[rest], y[rest], e[rest]).vertices()
+        assert not np.all(P.contains(Vr, atol=1e-9))
+
+
+def test_tightened_extent_support():
+    """tightened() strips equal extent() along w_k; extent/support equal the vertex extremes."""
+    rng = np.random.default_rng(9)
+    W, y, e, _ = random_problem(rng, 3, 30)
+    P = Polytope.from_strips(W, y, e)
+    V = P.vertices()
+    d = rng.normal(size=3)
+    lo, hi = P.extent(d)
+    assert lo == pytest.approx((V @ d).min(), abs=1e-9) and hi == pytest.approx((V @ d).max(), abs=1e-9)
+    assert P.support(d) == pytest.approx(hi, abs=1e-9)
+    T = P.tightened()
+    proj = V @ W.T
+    assert np.allclose(T.y - T.e_max, proj.min(axis=0), atol=1e-9)
+    assert np.allclose(T.y + T.e_max, proj.max(axis=0), atol=1e-9)
+    assert np.all(T.e_max <= e + 1e-12)
+    assert T.volume() == pytest.approx(P.volume(), rel=1e-8)
+
+
+def test_volume_of_cube_and_one_dim():
+    """Closed forms: the cube [-1,1]^3 has volume 8; a 1-D set is an interval."""
+    P = Polytope.from_strips(np.eye(3), np.zeros(3), 1.0)
+    assert P.volume() == pytest.approx(8.0)
+    assert len(P.vertices()) == 8
+    assert set(map(tuple, np.round(P.vertices(), 12))) == set(itertools.product([-1.0, 1.0], repeat=3))
+    Q = Polytope.from_strips([[1.0], [2.0]], [0.0, 1.0], [1.0, 2.0])
+    assert Q.volume() == pytest.approx(1.5) and np.allclose(Q.vertices().ravel(), [-0.5, 1.0])
+
+
+@pytest.mark.parametrize("args,msg", [
+    ((np.ones((3, 2)), np.ones(4), 1.0), "rows"),
+    ((np.ones((3, 2)), np.ones(3), [1.0, 1.0]), "shape"),
+    ((np.ones((3, 2)), np.ones(3), 0.0), "positive"),
+    ((np.array([[1.0, np.nan]]), np.ones(1), 1.0), "NaN"),
+    ((np.ones((3, 2)), np.array([1.0, np.nan, 1.0]), 1.0), "NaN"),
+])
+def test_bad_input_raises(args, msg):
+    """Wrong shapes, NaN, non-positive bounds: InputError naming the problem."""
+    with pytest.raises(InputError, match=msg):
+        Polytope.from_strips(*args)
+
+
+def test_bad_prior_and_high_dim_vertices_raise():
+    """Box with lo >= hi, halfspace shape errors, vertices() beyond p = 6: InputError."""
+    W = np.eye(2)
+    with pytest.raises(InputError, match="lo < hi"):
+        Polytope.from_strips(W, np.zeros(2), 1.0, box=([0.0, 1.0], [1.0, 1.0]))
+    with pytest.raises(InputError, match="columns"):
+        Polytope.from_strips(W, np.zeros(2), 1.0, halfspaces=(np.ones((1, 3)), [1.0]))
+    with pytest.raises(InputError, match="p <= 6"):
+        Polytope.from_strips(np.eye(7), np.zeros(7), 1.0).vertices()
