@@ -1,1 +1,44 @@
 """Layer 6, report: figures, tables and the self-contained HTML pages."""
+
+from boundid.report.figures import (
+    PALETTE,
+    color_for,
+    log_volume_bars,
+    parameter_convergence,
+    projection_2d,
+    torque_bounds,
+    trajectory_comparison,
+    volume_history,
+    width_ratios,
+)
+from boundid.report.html import Page, write_index
+from boundid.report.tables import (
+    deviation_percent,
+    estimate_summary,
+    format_frame,
+    latex_table,
+    markdown_table,
+    parameter_table,
+    widths,
+)
+
+__all__ = [
+    "PALETTE",
+    "Page",
+    "color_for",
+    "deviation_percent",
+    "estimate_summary",
+    "format_frame",
+    "latex_table",
+    "log_volume_bars",
+    "markdown_table",
+    "parameter_convergence",
+    "parameter_table",
+    "projection_2d",
+    "torque_bounds",
+    "trajectory_comparison",
+    "volume_history",
+    "width_ratios",
+    "widths",
+    "write_index",
+]

@@ -1,0 +1,454 @@
+"""Figures of a study: matplotlib ``Figure`` objects built from plain arrays.
+
+Every function takes numpy arrays, dicts of arrays or :class:`~boundid.sets.Ellipsoid` objects and
+returns a :class:`matplotlib.figure.Figure`. Figures are created with ``Figure()`` directly (not
+``pyplot``), so they render with the Agg canvas whatever the interactive backend is, and nothing
+accumulates in pyplot's figure registry. Colours are fixed per estimator (:func:`color_for`) so
+the same method has the same colour in every figure of every report.
+"""
+
+from __future__ import annotations
+
+import re
+import zlib
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Polygon, Rectangle
+from matplotlib.ticker import FormatStrFormatter, NullFormatter
+from scipy.spatial import ConvexHull, QhullError
+
+from boundid.errors import InputError
+from boundid.sets.ellipsoid import Ellipsoid
+
+# Okabe-Ito colour-blind safe palette, plus a few darker tones; one fixed colour per estimator.
+PALETTE: dict[str, str] = {
+    "OBE-factorized": "#0072B2",
+    "OBE-standard": "#56B4E9",
+    "WLS": "#D55E00",
+    "OLS": "#E69F00",
+    "RLS": "#CC79A7",
+    "Kalman": "#882255",
+    "LP exact": "#000000",
+    "SDP outer": "#009E73",
+    "John": "#999933",
+    "inner": "#44AA99",
+    "truth": "#000000",
+    "measured": "#4D4D4D",
+}
+
+# (regular expression on the lower-cased label, palette key), first match wins: "OBE-factorized
+# (volume)" -> OBE-factorized, "OBE (trace)" -> OBE-standard, "WLS 95 %" -> WLS, ...
+_RULES: tuple[tuple[str, str], ...] = (
+    (r"factori", "OBE-factorized"),
+    (r"\bobe\b|fogel|huang", "OBE-standard"),
+    (r"john|inscribed|max-?vol", "John"),
+    (r"\binner\b", "inner"),
+    (r"\bsdp\b|outer|l[oö]wner|min-?vol", "SDP outer"),
+    (r"\blp\b|exact|polytope", "LP exact"),
+    (r"\bwls\b|weighted", "WLS"),
+    (r"\bols\b|least.squares", "OLS"),
+    (r"\brls\b|recursive", "RLS"),
+    (r"kalman", "Kalman"),
+    (r"truth|true", "truth"),
+    (r"measured", "measured"),
+)
+_FALLBACK = ("#332288", "#117733", "#AA4499", "#661100", "#6699CC", "#888888", "#DDCC77", "#CC6677")
+
+DPI = 110  # PNG resolution of embedded figures: legible and small (pages stay well under 3 MB)
+_AX_W, _AX_H = 3.3, 2.2  # inches per subplot
+
+
+def color_for(label: str) -> str:
+    """The fixed colour of an estimator label (stable across figures and runs).
+
+    Known methods are recognised by keyword (``"OBE-factorized (volume)"`` -> the OBE-factorized
+    colour); any other label gets a colour chosen by a CRC32 hash of the label, so it is still the
+    same in every figure.
+    """
+    low = label.lower()
+    for pattern, key in _RULES:
+        if re.search(pattern, low):
+            return PALETTE[key]
+    return _FALLBACK[zlib.crc32(label.encode()) % len(_FALLBACK)]
+
+
+def _grid(n: int, max_cols: int = 3) -> tuple[int, int]:
+    ncols = min(n, 2 if n <= 4 else max_cols)
+    return -(-n // ncols), ncols
+
+
+def _panel_figure(n: int, max_cols: int = 3, sharex: bool = True) -> tuple[Figure, list]:
+    """A constrained-layout figure with exactly ``n`` axes in a grid (unused grid cells removed)."""
+    nrows, ncols = _grid(n, max_cols)
+    fig = Figure(figsize=(_AX_W * ncols, _AX_H * nrows + 0.4), dpi=DPI, layout="constrained")
+    axes = fig.subplots(nrows, ncols, sharex=sharex, squeeze=False).ravel()
+    for ax in axes[n:]:
+        fig.delaxes(ax)
+    return fig, list(axes[:n])
+
+
+def _as_columns(a, name: str, n_rows: int | None = None) -> np.ndarray:
+    """(N,) or (N, n) -> float (N, n); checks finiteness-agnostic shape only."""
+    x = np.asarray(a, dtype=float)
+    if x.ndim == 1:
+        x = x[:, None]
+    if x.ndim != 2:
+        raise InputError(f"{name} must be (N,) or (N, n), got shape {x.shape}.")
+    if n_rows is not None and x.shape[0] != n_rows:
+        raise InputError(f"{name} has {x.shape[0]} rows but the time vector has {n_rows} samples.")
+    return x
+
+
+def _trace(value, what: str) -> tuple[np.ndarray, np.ndarray]:
+    """A history entry: a ``(index, values)`` pair or an object with ``.index`` and ``.<what>``."""
+    if hasattr(value, "index") and hasattr(value, what):
+        return np.asarray(value.index), np.asarray(getattr(value, what), dtype=float)
+    index, values = value
+    return np.asarray(index), np.asarray(values, dtype=float)
+
+
+def _x_axis(t, index: np.ndarray) -> np.ndarray:
+    """Sample indices -> times t[index] when a time vector is given, else the indices."""
+    if t is None:
+        return index.astype(float)
+    t = np.asarray(t, dtype=float)
+    if index.size and (index.min() < 0 or index.max() >= t.shape[0]):
+        raise InputError(f"history index runs to {index.max()} but the time vector has only {t.shape[0]} samples.")
+    return t[index.astype(int)]
+
+
+def _label(name: str, unit: str | None) -> str:
+    return f"{name} [{unit}]" if unit else name
+
+
+def _robust_limits(values: list[np.ndarray], margin: float = 0.08) -> tuple[float, float] | None:
+    finite = np.concatenate([v[np.isfinite(v)] for v in values]) if values else np.zeros(0)
+    if finite.size == 0:
+        return None
+    lo, hi = float(finite.min()), float(finite.max())
+    pad = margin * (hi - lo) if hi > lo else max(abs(lo), 1.0) * margin
+    return lo - pad, hi + pad
+
+
+def parameter_convergence(
+    t,
+    histories: Mapping[str, object],
+    truth=None,
+    names: Sequence[str] | None = None,
+    *,
+    units: Sequence[str] | None = None,
+    transient: float = 0.05,
+) -> Figure:
+    """theta_hat against time, one subplot per parameter, one line per estimator.
+
+    The convergence figure of the direct-drive paper: each estimator's centre after each recorded
+    sample, with the true value as a dashed black line.
+
+    t : (N,) array [s] or None
+        Time of each sample; history indices are looked up in it. None plots against the index.
+    histories : {label: (index (K,), centers (K, p))} or {label: History}
+    truth : (p,) array or None
+        True parameter values, drawn as dashed lines.
+    names, units : p strings each, or None (names default to theta1..thetap).
+    transient : float in [0, 1)
+        The y-limits ignore the first ``transient`` fraction of each trace, so that the large
+        initial swings of recursive estimators do not flatten the converged part (the lines are
+        still drawn in full).
+    """
+    if not histories:
+        raise InputError("parameter_convergence needs at least one history.")
+    if not 0.0 <= transient < 1.0:
+        raise InputError(f"transient must be in [0, 1), got {transient}.")
+    traces = {label: _trace(h, "centers") for label, h in histories.items()}
+    p = {c.shape[1] if c.ndim == 2 else -1 for _, c in traces.values()}
+    if len(p) != 1 or -1 in p:
+        raise InputError(f"every history needs centers of shape (K, p) with the same p; got p in {sorted(p)}.")
+    p = p.pop()
+    names = list(names) if names is not None else [f"theta{j + 1}" for j in range(p)]
+    truth = None if truth is None else np.asarray(truth, dtype=float)
+    if len(names) != p or (truth is not None and truth.shape != (p,)):
+        raise InputError(f"names and truth must have p = {p} entries.")
+    fig, axes = _panel_figure(p)
+    for label, (index, centers) in traces.items():
+        x = _x_axis(t, index)
+        for j, ax in enumerate(axes):
+            ax.plot(x, centers[:, j], color=color_for(label), lw=1.2, label=label)
+    for j, ax in enumerate(axes):
+        tails = [c[int(transient * c.shape[0]) :, j] for _, c in traces.values()]
+        if truth is not None:
+            ax.axhline(truth[j], color=PALETTE["truth"], ls="--", lw=1.0, label="truth")
+            tails.append(truth[j : j + 1])
+        limits = _robust_limits(tails)
+        if limits is not None:
+            ax.set_ylim(*limits)
+        ax.set_ylabel(_label(names[j], units[j] if units is not None else None))
+        ax.grid(alpha=0.3)
+    for ax in axes[-_grid(p)[1] :]:
+        ax.set_xlabel("time [s]" if t is not None else "sample")
+        ax.xaxis.set_tick_params(labelbottom=True)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside upper center", ncols=min(len(labels), 5), frameon=False)
+    return fig
+
+
+def _stride(n: int, max_points: int) -> slice:
+    return slice(None, None, max(1, -(-n // max_points)))
+
+
+def torque_bounds(
+    t,
+    measured,
+    center_pred,
+    half_width,
+    band_label: str = "OBE bounds",
+    extra_bands: Mapping[str, tuple[object, object]] | None = None,
+    *,
+    joint_names: Sequence[str] | None = None,
+    unit: str = "N m",
+    max_points: int = 4000,
+) -> Figure:
+    """Measured torque inside the predicted torque bounds, one subplot per joint.
+
+    The cross-validation figure of the H4 paper (eq. 37, Fig. 4): the bounds
+    y = w^T theta_hat +- sqrt(w^T M^-1 w) of the guaranteed ellipsoid, filled, with the measured
+    torque drawn on top; samples outside the band are marked and counted in the subplot title.
+
+    t : (N,) [s];  measured, center_pred, half_width : (N,) or (N, n) [``unit``]
+    extra_bands : {label: (center (N, n), half_width (N, n))}, e.g. the WLS 95 % prediction band,
+        drawn as outlines so both bands stay readable.
+    max_points : for long records only every k-th sample is drawn so the figure stays small
+        (outside-band samples are found on the full record and all marked).
+    """
+    t = np.asarray(t, dtype=float)
+    N = t.shape[0]
+    meas = _as_columns(measured, "measured", N)
+    cen = _as_columns(center_pred, "center_pred", N)
+    hw = _as_columns(half_width, "half_width", N)
+    if cen.shape != meas.shape or hw.shape != meas.shape:
+        raise InputError(f"measured, center_pred and half_width must have one shape, got {meas.shape}, "
+                         f"{cen.shape}, {hw.shape}.")
+    if np.any(hw < 0):
+        raise InputError("half_width must be >= 0 (it is sqrt(w^T M^-1 w)).")
+    extra = {}
+    for label, (c, h) in (extra_bands or {}).items():
+        extra[label] = (_as_columns(c, f"{label} center", N), _as_columns(h, f"{label} half-width", N))
+        if extra[label][0].shape != meas.shape or extra[label][1].shape != meas.shape:
+            raise InputError(f"band {label!r} must have shape {meas.shape}.")
+    n = meas.shape[1]
+    names = list(joint_names) if joint_names is not None else [f"joint {i + 1}" for i in range(n)]
+    fig = Figure(figsize=(7.0, 2.0 * n + 0.5), dpi=DPI, layout="constrained")
+    axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
+    s = _stride(N, max_points)
+    band_color = color_for(band_label)
+    for i, ax in enumerate(axes):
+        ax.fill_between(t[s], (cen - hw)[s, i], (cen + hw)[s, i], color=band_color, alpha=0.3, lw=0, label=band_label)
+        for label, (c, h) in extra.items():
+            col = color_for(label)
+            ax.plot(t[s], (c - h)[s, i], color=col, lw=0.9, ls="--", label=label)
+            ax.plot(t[s], (c + h)[s, i], color=col, lw=0.9, ls="--")
+        ax.plot(t[s], meas[s, i], color=PALETTE["measured"], lw=0.7, label="measured")
+        out = np.abs(meas[:, i] - cen[:, i]) > hw[:, i]
+        if out.any():
+            ax.plot(t[out], meas[out, i], "x", color="#D00000", ms=4, label="outside bounds")
+        ax.set_title(f"{names[i]}: {int(out.sum())} of {N} samples outside {band_label}", fontsize=9)
+        ax.set_ylabel(_label("torque", unit))
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("time [s]")
+    handles = {}
+    for ax in axes:
+        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
+            handles.setdefault(lab, h)
+    labels = list(handles)
+    fig.legend([handles[k] for k in labels], labels, loc="outside upper center", ncols=len(labels), frameon=False)
+    return fig
+
+
+def trajectory_comparison(
+    t,
+    q_measured,
+    q_resimulated: Mapping[str, object],
+    *,
+    joint_names: Sequence[str] | None = None,
+    unit: str = "rad",
+) -> Figure:
+    """Open-loop re-simulation with identified parameters against the measured positions.
+
+    Left column: positions per joint; right column: re-simulated minus measured, where the
+    differences between estimators are visible at all. 2 n axes for n joints.
+
+    t : (N,) [s];  q_measured : (N,) or (N, n) [``unit``];  q_resimulated : {label: (N, n)}
+    """
+    t = np.asarray(t, dtype=float)
+    N = t.shape[0]
+    qm = _as_columns(q_measured, "q_measured", N)
+    sims = {label: _as_columns(q, f"q_resimulated[{label!r}]", N) for label, q in q_resimulated.items()}
+    for label, q in sims.items():
+        if q.shape != qm.shape:
+            raise InputError(f"q_resimulated[{label!r}] has shape {q.shape}, q_measured {qm.shape}.")
+    n = qm.shape[1]
+    names = list(joint_names) if joint_names is not None else [f"joint {i + 1}" for i in range(n)]
+    fig = Figure(figsize=(8.0, 2.0 * n + 0.5), dpi=DPI, layout="constrained")
+    axes = fig.subplots(n, 2, sharex=True, squeeze=False)
+    for i in range(n):
+        ax, ax_err = axes[i]
+        ax.plot(t, qm[:, i], color=PALETTE["measured"], lw=1.6, label="measured")
+        ax_err.axhline(0.0, color=PALETTE["measured"], lw=0.8)
+        for label, q in sims.items():
+            ax.plot(t, q[:, i], color=color_for(label), lw=1.0, ls="--", label=label)
+            ax_err.plot(t, q[:, i] - qm[:, i], color=color_for(label), lw=1.0, label=label)
+        ax.set_ylabel(_label(f"q {names[i]}", unit))
+        ax_err.set_ylabel(_label("re-sim - measured", unit))
+        for a in (ax, ax_err):
+            a.grid(alpha=0.3)
+    for a in axes[-1]:
+        a.set_xlabel("time [s]")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside upper center", ncols=min(len(labels), 5), frameon=False)
+    return fig
+
+
+def projection_2d(
+    polytope_vertices_2d,
+    ellipsoids: Mapping[str, Ellipsoid],
+    truth_2d=None,
+    box=None,
+    names: Sequence[str] = ("theta_i", "theta_j"),
+    *,
+    units: Sequence[str] | None = None,
+) -> Figure:
+    """A parameter pair: the polytope's projection with the ellipsoid estimates' projections.
+
+    polytope_vertices_2d : (k, 2) or None
+        Points whose convex hull is the projected polytope (e.g. its vertices projected on the
+        pair, or support points of the 2-D shadow); drawn filled in grey.
+    ellipsoids : {label: Ellipsoid of dimension 2} (``Ellipsoid.project([i, j])`` of each estimate)
+    truth_2d : (2,) or None, marked with a star.
+    box : (lo (2,), hi (2,)) or None, e.g. the exact LP bounds of the pair, drawn dashed.
+    """
+    fig = Figure(figsize=(6.0, 4.0), dpi=DPI, layout="constrained")
+    ax = fig.subplots()
+    if polytope_vertices_2d is not None:
+        pts = np.asarray(polytope_vertices_2d, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 3:
+            raise InputError(f"polytope_vertices_2d must be (k >= 3, 2), got shape {pts.shape}.")
+        try:
+            hull = ConvexHull(pts)
+        except QhullError as exc:
+            raise InputError("the projected polytope points are collinear (a flat projection); "
+                             "pass None to leave the polytope out or check the parameter pair.") from exc
+        ax.add_patch(Polygon(pts[hull.vertices], closed=True, facecolor="#BBBBBB", edgecolor="#333333",
+                             alpha=0.6, lw=1.0, label="polytope (exact set)"))
+    if box is not None:
+        lo, hi = (np.asarray(b, dtype=float) for b in box)
+        if lo.shape != (2,) or hi.shape != (2,) or np.any(hi < lo):
+            raise InputError("box must be (lo (2,), hi (2,)) with lo <= hi.")
+        ax.add_patch(Rectangle(tuple(lo), *(hi - lo), fill=False, ls="--", lw=1.0,
+                               edgecolor=PALETTE["LP exact"], label="LP exact bounds"))
+    for label, ell in ellipsoids.items():
+        b = ell.boundary(240)
+        col = color_for(label)
+        ax.plot(b[:, 0], b[:, 1], color=col, lw=1.4, label=label)
+        ax.plot(*ell.center, "o", color=col, ms=3)
+    if truth_2d is not None:
+        tr = np.asarray(truth_2d, dtype=float)
+        if tr.shape != (2,):
+            raise InputError(f"truth_2d must be (2,), got shape {tr.shape}.")
+        ax.plot(*tr, "*", color=PALETTE["truth"], ms=10, label="truth")
+    ax.autoscale_view()
+    ax.set_xlabel(_label(names[0], units[0] if units is not None else None))
+    ax.set_ylabel(_label(names[1], units[1] if units is not None else None))
+    ax.grid(alpha=0.3)
+    fig.legend(loc="outside right upper", fontsize=8, frameon=False)
+    return fig
+
+
+def width_ratios(widths, reference: str = "LP exact") -> Figure:
+    """Per-parameter interval width of each set estimate over the exact LP width (log scale).
+
+    widths : DataFrame, one row per parameter (index = names), one column per estimate, holding
+        interval widths hi - lo; column ``reference`` holds the exact LP widths. Ratios > 1 are
+        outer bounds (looser than exact), < 1 inner ones.
+    """
+    if reference not in widths.columns:
+        raise InputError(f"widths has no reference column {reference!r}; columns are {list(widths.columns)}.")
+    ref = widths[reference].to_numpy(dtype=float)
+    if np.any(~(ref > 0)):
+        raise InputError(f"the reference widths ({reference}) must be > 0 to divide by.")
+    others = [c for c in widths.columns if c != reference]
+    if not others:
+        raise InputError("width_ratios needs at least one estimate column besides the reference.")
+    p = len(widths.index)
+    fig = Figure(figsize=(max(4.5, 0.9 * p + 1.5), 3.4), dpi=DPI, layout="constrained")
+    ax = fig.subplots()
+    step = 0.8 / len(others)
+    x = np.arange(p)
+    extreme = 0.1  # |log10 ratio| shown at least, so ratios near 1 are not magnified
+    for k, label in enumerate(others):
+        ratio = widths[label].to_numpy(dtype=float) / ref
+        # bars grow from 1: up for outer bounds (looser than exact), down for inner ones
+        bars = ax.bar(x - 0.4 + (k + 0.5) * step, ratio - 1.0, bottom=1.0, width=step, color=color_for(label),
+                      label=label)
+        ax.bar_label(bars, labels=[f"{r:.3g}" for r in ratio], fontsize=6, padding=1)
+        extreme = max(extreme, float(np.nanmax(np.abs(np.log10(ratio)))))
+    ax.axhline(1.0, color=PALETTE["LP exact"], lw=1.0, ls="--", label=f"{reference} (= 1)")
+    ax.set_yscale("log")
+    ax.set_ylim(10 ** (-1.3 * extreme), 10 ** (1.3 * extreme))
+    ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
+    ax.yaxis.set_minor_formatter(FormatStrFormatter("%g") if extreme < 0.5 else NullFormatter())
+    ax.set_xticks(x, [str(i) for i in widths.index], rotation=30 if p > 6 else 0)
+    ax.set_ylabel(f"width / {reference} width")
+    ax.grid(axis="y", which="both", alpha=0.3)
+    fig.legend(loc="outside upper center", fontsize=8, ncols=min(len(others) + 1, 4), frameon=False)
+    return fig
+
+
+def log_volume_bars(log_volumes_per_dim: Mapping[str, float]) -> Figure:
+    """Horizontal bars of ln vol / p per estimate (the size of each set, comparable across p).
+
+    log_volumes_per_dim : {label: ln(volume) / p}; NaN entries (point estimates) are left out.
+    """
+    items = [(k, float(v)) for k, v in log_volumes_per_dim.items() if np.isfinite(v)]
+    if not items:
+        raise InputError("log_volume_bars needs at least one finite log-volume.")
+    labels, values = zip(*items, strict=True)
+    fig = Figure(figsize=(5.5, 0.45 * len(items) + 1.0), dpi=DPI, layout="constrained")
+    ax = fig.subplots()
+    y = np.arange(len(items))
+    bars = ax.barh(y, values, color=[color_for(k) for k in labels])
+    ax.bar_label(bars, labels=[f"{v:.3g}" for v in values], fontsize=7, padding=2)
+    ax.set_yticks(y, labels)
+    ax.invert_yaxis()
+    ax.axvline(0.0, color="#333333", lw=0.8)
+    ax.set_xlabel("ln(volume) / p  (smaller is tighter)")
+    ax.margins(x=0.15)
+    ax.grid(axis="x", alpha=0.3)
+    return fig
+
+
+def volume_history(histories: Mapping[str, object], t=None) -> Figure:
+    """ln volume of the set against sample (or time), one line per recursive set estimator.
+
+    histories : {label: (index (K,), log_volumes (K,))} or {label: History};
+        traces that are all NaN (point estimators) are skipped.
+    t : (N,) [s] or None, as in :func:`parameter_convergence`.
+    """
+    fig = Figure(figsize=(5.5, 3.2), dpi=DPI, layout="constrained")
+    ax = fig.subplots()
+    drawn = 0
+    for label, h in histories.items():
+        index, logv = _trace(h, "log_volumes")
+        if logv.shape != index.shape:
+            raise InputError(f"history {label!r}: index {index.shape} and log_volumes {logv.shape} differ.")
+        if np.all(np.isnan(logv)):
+            continue
+        ax.plot(_x_axis(t, index), logv, color=color_for(label), lw=1.3, label=label)
+        drawn += 1
+    if drawn == 0:
+        raise InputError("volume_history needs at least one history with finite log-volumes.")
+    ax.set_xlabel("time [s]" if t is not None else "sample")
+    ax.set_ylabel("ln(volume)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return fig

@@ -1,0 +1,390 @@
+"""Tests of the report layer: figures, tables, self-contained HTML pages, the browser check."""
+
+from __future__ import annotations
+
+import base64
+import io
+import re
+from html.parser import HTMLParser
+
+import numpy as np
+import pandas as pd
+import pytest
+from matplotlib.figure import Figure
+from PIL import Image
+
+from boundid.errors import InputError
+from boundid.estimators import Estimate, History
+from boundid.report import (
+    PALETTE,
+    Page,
+    browser,
+    color_for,
+    deviation_percent,
+    estimate_summary,
+    format_frame,
+    latex_table,
+    log_volume_bars,
+    markdown_table,
+    parameter_convergence,
+    parameter_table,
+    projection_2d,
+    torque_bounds,
+    trajectory_comparison,
+    volume_history,
+    width_ratios,
+    widths,
+    write_index,
+)
+from boundid.sets import Ellipsoid
+
+NAMES = ["m_1", "I^2", "fv"]
+TRUTH = np.array([2.0, 0.5, -0.1])
+
+
+def _history(K=30, p=3, seed=0):
+    rng = np.random.default_rng(seed)
+    index = np.arange(K) * 2
+    centers = TRUTH[:p] + rng.standard_normal((K, p)) / (1 + index[:, None])
+    return History(index, centers, np.linspace(3.0, -4.0, K))
+
+
+def _estimate(label, radius=0.3, kind="guaranteed"):
+    c = TRUTH + 0.05
+    e = Ellipsoid.ball(c, radius)
+    return Estimate(label, c, e, e.intervals(), kind, level=0.95 if kind == "statistical" else None,
+                    names=tuple(NAMES), history=_history(), info={"time_s": 0.01})
+
+
+# ------------------------------------------------------------------------------------ palette
+def test_palette_colours_are_fixed_per_estimator():
+    """Reference: the PALETTE table itself; variants of a method's label share its colour and
+    different methods get different colours; unknown labels are stable across calls."""
+    assert color_for("OBE-factorized (volume)") == color_for("OBE-factorized (trace)") == PALETTE["OBE-factorized"]
+    assert color_for("OBE (trace)") == PALETTE["OBE-standard"]
+    assert color_for("WLS 95 %") == PALETTE["WLS"]
+    assert color_for("RLS") == PALETTE["RLS"]
+    assert color_for("John ellipsoid") == PALETTE["John"]
+    assert color_for("SDP outer (min volume)") == PALETTE["SDP outer"]
+    assert color_for("LP exact") == PALETTE["LP exact"]
+    methods = ["OBE-factorized", "OBE-standard", "WLS", "OLS", "RLS", "Kalman", "LP exact", "SDP outer", "John",
+               "inner"]
+    assert len({color_for(m) for m in methods}) == len(methods)
+    assert color_for("my new method") == color_for("my new method")
+
+
+# ------------------------------------------------------------------------------------ figures
+def test_parameter_convergence_draws_each_history_and_truth():
+    """Reference: the input arrays: one axis per parameter, each line's y-data equals the history
+    centres, x-data equals t[index], and the truth line sits at the true value."""
+    t = np.arange(100) * 0.01
+    hists = {"OBE-factorized (volume)": _history(seed=1), "RLS": (_history(seed=2).index, _history(seed=2).centers)}
+    fig = parameter_convergence(t, hists, TRUTH, NAMES, units=["kg", "kg m^2", "N m s"])
+    assert isinstance(fig, Figure) and len(fig.axes) == 3
+    h = hists["OBE-factorized (volume)"]
+    for j, ax in enumerate(fig.axes):
+        line = ax.lines[0]
+        np.testing.assert_array_equal(line.get_ydata(), h.centers[:, j])
+        np.testing.assert_array_equal(line.get_xdata(), t[h.index])
+        assert line.get_color().lower() == PALETTE["OBE-factorized"].lower()
+        assert np.allclose(ax.lines[-1].get_ydata(), TRUTH[j])  # the dashed truth line
+    assert fig.axes[1].get_ylabel() == "I^2 [kg m^2]"
+
+
+def test_parameter_convergence_rejects_mismatched_histories():
+    """Reference: the documented contract (every history has the same p, names match p)."""
+    with pytest.raises(InputError):
+        parameter_convergence(None, {"a": _history(p=3), "b": _history(p=2)})
+    with pytest.raises(InputError):
+        parameter_convergence(None, {"a": _history(p=3)}, names=["x", "y"])
+    with pytest.raises(InputError, match="time vector"):
+        parameter_convergence(np.arange(5.0), {"a": _history(p=3)})
+
+
+def test_torque_bounds_counts_samples_outside_the_band():
+    """Reference: samples placed outside the band by construction (indices 7 and 30 on joint 2,
+    none on joint 1) must be the ones marked and counted."""
+    N = 50
+    t = np.linspace(0, 1, N)
+    center = np.column_stack([np.sin(t), np.cos(t)])
+    hw = np.full((N, 2), 0.1)
+    measured = center + 0.05
+    measured[[7, 30], 1] = center[[7, 30], 1] + 0.3
+    fig = torque_bounds(t, measured, center, hw, "OBE-factorized", {"WLS 95 %": (center, 0.5 * hw)},
+                        joint_names=["q1", "q2"])
+    assert len(fig.axes) == 2
+    assert "0 of 50" in fig.axes[0].get_title() and "2 of 50" in fig.axes[1].get_title()
+    marks = [ln for ln in fig.axes[1].lines if ln.get_marker() == "x"]
+    assert len(marks) == 1
+    np.testing.assert_array_equal(marks[0].get_xdata(), t[[7, 30]])
+    with pytest.raises(InputError):
+        torque_bounds(t, measured, center[:, :1], hw)
+    with pytest.raises(InputError):
+        torque_bounds(t, measured, center, -hw)
+
+
+def test_torque_bounds_thins_long_records_but_marks_every_outlier():
+    """Reference: a 20 000-sample record with max_points=1000 draws every 20th sample, while the
+    single out-of-band sample (index 12345, not a multiple of 20) is still marked."""
+    N = 20_000
+    t = np.arange(N) * 1e-3
+    y = np.zeros(N)
+    y[12345] = 1.0
+    fig = torque_bounds(t, y, np.zeros(N), np.full(N, 0.5), max_points=1000)
+    ax = fig.axes[0]
+    measured_line = next(ln for ln in ax.lines if ln.get_label() == "measured")
+    assert len(measured_line.get_xdata()) == 1000
+    marks = next(ln for ln in ax.lines if ln.get_marker() == "x")
+    np.testing.assert_array_equal(marks.get_xdata(), [t[12345]])
+
+
+def test_trajectory_comparison_shows_positions_and_errors():
+    """Reference: the inputs: 2 n axes; the error column holds q_resim - q_measured."""
+    t = np.linspace(0, 1, 40)
+    qm = np.column_stack([np.sin(t), t**2])
+    fig = trajectory_comparison(t, qm, {"WLS": qm + 0.01, "OBE-factorized": qm - 0.02})
+    assert len(fig.axes) == 4
+    err_ax = fig.axes[1]  # row 0, error column
+    np.testing.assert_allclose(err_ax.lines[1].get_ydata(), 0.01)
+    np.testing.assert_allclose(err_ax.lines[2].get_ydata(), -0.02)
+    with pytest.raises(InputError):
+        trajectory_comparison(t, qm, {"WLS": qm[:, :1]})
+
+
+def test_projection_2d_draws_the_hull_and_ellipsoid_boundaries():
+    """References: the convex hull of a square's corners plus interior points is the square
+    (closed form); every drawn ellipse point has Mahalanobis distance 1 (Ellipsoid.mahalanobis2)."""
+    corners = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    pts = np.vstack([corners, np.random.default_rng(0).uniform(0.2, 0.8, (10, 2))])
+    E = Ellipsoid([0.5, 0.5], [[0.5, 0.1], [0.1, 0.3]])
+    fig = projection_2d(pts, {"SDP outer": E, "John": E.scaled(0.4)}, [0.5, 0.5], ([0, 0], [1, 1]), ["a", "b"])
+    assert len(fig.axes) == 1
+    ax = fig.axes[0]
+    polygon = ax.patches[0].get_xy()
+    assert {tuple(v) for v in np.round(polygon, 12)} == {tuple(v) for v in corners}
+    boundary = ax.lines[0].get_xydata()
+    np.testing.assert_allclose(E.mahalanobis2(boundary), 1.0, rtol=1e-9)
+    with pytest.raises(InputError, match="collinear"):
+        projection_2d(np.array([[0, 0], [1, 1], [2, 2.0]]), {})
+    with pytest.raises(InputError):
+        projection_2d(None, {"3-D": Ellipsoid.ball(np.zeros(3), 1.0)})
+
+
+def test_width_ratios_bars_are_width_over_exact_width():
+    """Reference: hand-computed ratios 1.5, 2 (outer) and 0.5 (inner) of given widths."""
+    df = pd.DataFrame({"LP exact": [2.0, 1.0], "OBE-factorized": [3.0, 2.0], "John": [1.0, 0.5]},
+                      index=pd.Index(["a", "b"], name="parameter"))
+    fig = width_ratios(df)
+    ax = fig.axes[0]
+    assert len(fig.axes) == 1 and ax.get_yscale() == "log"
+    tops = [r.get_y() + r.get_height() for r in ax.patches]
+    np.testing.assert_allclose(tops, [1.5, 2.0, 0.5, 0.5])
+    with pytest.raises(InputError, match="reference"):
+        width_ratios(df.drop(columns="LP exact"))
+
+
+def test_log_volume_bars_and_volume_history():
+    """Reference: the inputs: bar lengths equal the given values, NaN (point estimates) left out;
+    a history of all-NaN volumes is skipped and the others drawn unchanged."""
+    fig = log_volume_bars({"OBE-factorized": -1.5, "SDP outer": -2.0, "RLS": float("nan")})
+    assert len(fig.axes) == 1
+    np.testing.assert_allclose([r.get_width() for r in fig.axes[0].patches], [-1.5, -2.0])
+    h = _history()
+    nan_hist = (h.index, np.full(len(h), np.nan))
+    fig = volume_history({"OBE-standard": h, "RLS": nan_hist})
+    assert len(fig.axes) == 1 and len(fig.axes[0].lines) == 1
+    np.testing.assert_array_equal(fig.axes[0].lines[0].get_ydata(), h.log_volumes)
+    with pytest.raises(InputError):
+        volume_history({"RLS": nan_hist})
+
+
+# ------------------------------------------------------------------------------------- tables
+def test_parameter_table_keeps_numbers_and_formats_intervals():
+    """Reference: the inputs; the CSV round trip (pandas.read_csv) returns the numbers exactly,
+    the display frame shows "[lo, hi]"."""
+    lo, hi = TRUTH - 0.25, TRUTH + 0.5
+    df = parameter_table(NAMES, {"truth": TRUTH, "LP exact": (lo, hi)})
+    assert list(df.columns) == ["truth", "LP exact lo", "LP exact hi"]
+    text = format_frame(df, "{:.3g}")
+    assert list(text.columns) == ["truth", "LP exact"]
+    assert text.loc["m_1", "LP exact"] == "[1.75, 2.5]"
+    buf = io.StringIO()
+    df.to_csv(buf)
+    back = pd.read_csv(io.StringIO(buf.getvalue()), index_col=0)
+    np.testing.assert_array_equal(back["LP exact lo"].to_numpy(), lo)
+    with pytest.raises(InputError, match="lo > hi"):
+        parameter_table(NAMES, {"bad": (hi, lo)})
+    with pytest.raises(InputError):
+        parameter_table(NAMES, {"short": TRUTH[:2]})
+
+
+def test_deviation_percent_and_widths():
+    """Reference: hand-computed percentages; zero truth gives NaN (undefined)."""
+    dev = deviation_percent({"a": np.array([2.2, 0.45, 0.0]), "b": _estimate("b")}, [2.0, 0.5, 0.0], NAMES)
+    np.testing.assert_allclose(dev["a"].to_numpy()[:2], [10.0, -10.0])
+    assert np.isnan(dev["a"].iloc[2])
+    np.testing.assert_allclose(dev["b"].to_numpy()[:2], [2.5, 10.0])
+    w = widths(NAMES, {"x": (np.zeros(3), np.array([1.0, 2.0, 3.0]))})
+    np.testing.assert_array_equal(w["x"].to_numpy(), [1.0, 2.0, 3.0])
+
+
+def test_estimate_summary_against_closed_forms():
+    """Reference: ln vol of a 3-D ball of radius r is ln(4/3 pi r^3); truth containment decided by
+    hand (the ball of radius 0.3 about truth + 0.05 contains truth, of radius 0.04 does not, nor its intervals)."""
+    ests = {"OBE-factorized": _estimate("OBE-factorized"), "tight": _estimate("tight", 0.04)}
+    ref = (TRUTH - 0.3, TRUTH + 0.3)
+    s = estimate_summary(ests, TRUTH, ref)
+    assert s.loc["OBE-factorized", "ln vol"] == pytest.approx(np.log(4 / 3 * np.pi * 0.3**3))
+    assert s.loc["OBE-factorized", "ln vol / p"] == pytest.approx(np.log(4 / 3 * np.pi * 0.3**3) / 3)
+    assert s.loc["OBE-factorized", "mean width / exact"] == pytest.approx(1.0)
+    assert s.loc["OBE-factorized", "truth in set"] == "yes" and s.loc["tight", "truth in set"] == "no"
+    assert s.loc["tight", "truth in intervals"] == "no"
+
+
+def test_markdown_and_latex_escape_and_align():
+    """Reference: tabulate's LaTeX escapes (_ -> \\_, ^ -> \\^{}, % -> \\%) and Markdown pipes."""
+    df = parameter_table(NAMES, {"truth": TRUTH})
+    md = markdown_table(df)
+    assert md.splitlines()[0].startswith("| parameter") and "m_1" in md and "--:|" in md
+    tex = latex_table(df, caption="Deviation [%] of m_1", label="tab:x")
+    assert "\\begin{tabular}" in tex and "\\toprule" in tex and "m\\_1" in tex and "I\\^{}2" in tex
+    assert "\\caption{Deviation [\\%] of m\\_1}" in tex
+
+
+# -------------------------------------------------------------------------------------- pages
+class _PageParser(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.imgs, self.urls, self.tables, self.captions, self.scripts = [], [], 0, [], 0
+        self._in_caption = False
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "img":
+            self.imgs.append(a)
+        for key in ("src", "href"):
+            if key in a:
+                self.urls.append(a[key])
+        self.tables += tag == "table"
+        self.scripts += tag == "script"
+        if tag == "figcaption":
+            self._in_caption = True
+            self.captions.append("")
+
+    def handle_endtag(self, tag):
+        if tag == "figcaption":
+            self._in_caption = False
+
+    def handle_data(self, data):
+        if self._in_caption:
+            self.captions[-1] += data
+
+
+@pytest.fixture(scope="module")
+def study_page(tmp_path_factory):
+    root = tmp_path_factory.mktemp("reports")
+    ests = {"OBE-factorized (volume)": _estimate("OBE-factorized (volume)"),
+            "WLS": _estimate("WLS", 0.2, "statistical")}
+    t = np.linspace(0, 1, 60)
+    page = Page("Toy study <1>", "A toy set-up & three parameters.\n\nSecond paragraph.",
+                setup={"robot": "toy", "samples": 60})
+    page.section("Parameters", "Intervals of each estimate.")
+    page.table(parameter_table(NAMES, {"truth": TRUTH, **{k: e.intervals for k, e in ests.items()}}), "Intervals")
+    page.table(estimate_summary(ests, TRUTH), "Summary", "{:.3f}")
+    page.figure(parameter_convergence(t, {k: e.history for k, e in ests.items()}, TRUTH, NAMES), "Convergence")
+    page.section("Sets").figure(log_volume_bars({k: e.ellipsoid.log_volume() / 3 for k, e in ests.items()}), "Volumes")
+    path = page.write(root / "toy" / "index.html")
+    return root, path
+
+
+def test_page_is_self_contained(study_page):
+    """Reference: the page parsed by html.parser; every <img> is a base64 PNG (PNG signature,
+    decoded by PIL to a non-empty image), no http(s) URL anywhere, no script, under 3 MB."""
+    _, path = study_page
+    text = path.read_text(encoding="utf-8")
+    parser = _PageParser()
+    parser.feed(text)
+    assert len(parser.imgs) == 2 and parser.tables == 2 and parser.scripts == 0
+    for img in parser.imgs:
+        prefix = "data:image/png;base64,"
+        assert img["src"].startswith(prefix)
+        png = base64.b64decode(img["src"][len(prefix) :], validate=True)
+        assert png[:8] == b"\x89PNG\r\n\x1a\n"
+        with Image.open(io.BytesIO(png)) as im:
+            im.load()
+            assert im.width > 100 and im.height > 100
+    assert not [u for u in parser.urls if re.match(r"(?i)\s*(https?:)?//", u)]
+    assert "http://" not in text and "https://" not in text
+    assert path.stat().st_size < 3_000_000
+    assert "Toy study &lt;1&gt;" in text and "A toy set-up &amp; three parameters." in text
+    assert [c.split(".")[0] for c in parser.captions] == ["Table 1", "Table 2", "Figure 1", "Figure 2"]
+
+
+def test_page_writes_figures_tables_and_summary(study_page):
+    """Reference: the files read back: PNG/SVG per figure (PNG equal to the embedded one), CSV
+    numeric (read by pandas), LaTeX with a tabular, summary.md with every caption and table."""
+    root, path = study_page
+    d = path.parent
+    assert sorted(p.name for p in (d / "figures").iterdir()) == [
+        "convergence.png", "convergence.svg", "volumes.png", "volumes.svg"]
+    embedded = re.search(r'src="data:image/png;base64,([^"]+)"', path.read_text()).group(1)
+    assert base64.b64decode(embedded) == (d / "figures" / "convergence.png").read_bytes()
+    assert (d / "figures" / "convergence.svg").read_text().lstrip().startswith("<?xml")
+    csv = pd.read_csv(d / "tables" / "intervals.csv", index_col=0)
+    np.testing.assert_array_equal(csv["truth"].to_numpy(), TRUTH)
+    assert "WLS lo" in csv.columns
+    assert "\\begin{tabular}" in (d / "tables" / "summary.tex").read_text()
+    md = (d / "summary.md").read_text()
+    for s in ("# Toy study <1>", "## Parameters", "**Table 1.** Intervals", "**Table 2.** Summary",
+              "![Figure 1. Convergence](figures/convergence.png)", "| parameter"):
+        assert s in md
+
+
+def test_write_index_links_every_study(study_page):
+    """Reference: the written index parsed by html.parser: one link per study page, with the
+    study page's own title read back from it."""
+    root, _ = study_page
+    out = write_index(root)
+    parser = _PageParser()
+    parser.feed(out.read_text())
+    assert parser.urls == ["toy/index.html"]
+    assert "Toy study &lt;1&gt;" in out.read_text()
+    with pytest.raises(InputError, match="does not exist"):
+        write_index(root, ["missing"])
+
+
+def test_page_size_limit_and_input_checks(tmp_path):
+    """Reference: the documented contract: too large a page and non-Figure/non-DataFrame inputs raise."""
+    page = Page("big", max_bytes=1000).figure(log_volume_bars({"a": 1.0}), "one figure")
+    with pytest.raises(InputError, match="MB"):
+        page.write(tmp_path / "index.html")
+    assert not (tmp_path / "index.html").exists()
+    with pytest.raises(InputError):
+        Page("x").figure("not a figure", "c")
+    with pytest.raises(InputError):
+        Page("x").table(np.zeros((2, 2)), "c")
+
+
+# ------------------------------------------------------------------------------------ browser
+needs_browser = pytest.mark.skipif(browser.find_browser() is None, reason="no Chromium installed")
+
+
+@needs_browser
+@pytest.mark.slow
+def test_browser_check_passes_good_page_and_catches_broken_ones(study_page, tmp_path):
+    """Reference: Chromium itself. The generated page passes; negative controls fail: a corrupted
+    base64 PNG (broken image), a throwing script, and an external image URL (blocked by the CSP)."""
+    _, path = study_page
+    exe = browser.find_browser()
+    assert browser.check_page(path, exe) == []
+    text = path.read_text()
+    broken = tmp_path / "broken.html"
+    broken.write_text(text.replace("data:image/png;base64,iVBOR", "data:image/png;base64,AAAAA", 1))
+    assert any("broken image" in p for p in browser.check_page(broken, exe))
+    external = tmp_path / "external.html"
+    external.write_text(text.replace("</main>", '<img src="http://example.invalid/x.png" alt="ext"></main>'))
+    problems = browser.check_page(external, exe)
+    assert any("broken image: ext" in p for p in problems) and any("CSP" in p for p in problems)
+    script = tmp_path / "script.html"
+    script.write_text(text.replace("<head>", "<head><script>undefinedFunction();</script>", 1))
+    assert any("script error" in p for p in browser.check_page(script, exe))
