@@ -143,11 +143,12 @@ class KalmanEstimator(LinearFilter):
             self._run(W, y, r, 1.0, Q)
         else:
             rows = np.broadcast_to(r, (W.shape[0],))
+            last = W.shape[0] - 1
             for k in range(W.shape[0]):
                 self._filterpy_step(W[k], y[k], rows[k])
-                if self.record_every > 0 and self.n % self.record_every == 0:
+                if self.record_every > 0 and (self.n % self.record_every == 0 or k == last):
                     self.logdet = float(np.linalg.slogdet(self.P)[1])
-                    self._record_one()
+                    self._record_one(last=k == last)
             self.logdet = float(np.linalg.slogdet(self.P)[1])
         self.time_s += time.perf_counter() - t0
         return self.estimate()

@@ -209,10 +209,12 @@ def ols(W, y, level: float = 0.95, names=None) -> Estimate:
 def wls(W, y, groups, level: float = 0.95, names=None) -> Estimate:
     """Weighted least squares with per-group noise levels (Gautier's IDIM-WLS).
 
-    1. OLS on all rows: theta_OLS, residuals r = y - W theta_OLS.
-    2. For each group j (rows R_j, N_j = |R_j|, typically one joint):
-           sigma_j^2 = |r_{R_j}|^2 / (N_j - p)
-       (Gautier & Khalil's per-joint estimate; here from the global OLS residuals). Needs N_j > p.
+    1. The full W must have rank p (else :class:`RankDeficientError`).
+    2. For each group j (rows R_j, N_j = |R_j|, typically one joint), Gautier's per-joint estimate
+       from the OLS residuals of that group's own subsystem y_j = W_j theta:
+           sigma_j^2 = |y_j - W_j theta_j|^2 / (N_j - c_j),   theta_j = lstsq(W_j, y_j),
+       with c_j = rank(W_j) (= p unless the joint's rows leave some parameters out). This is
+       unbiased for each group whatever the other groups' noise. Needs N_j > c_j.
     3. Scale each row of group j by 1/sigma_j and solve OLS on the scaled problem
        (W_s, y_s); covariance, intervals and ellipsoid are those of that OLS
        (its residual variance, ~1 when the groups' noise levels are right).
@@ -237,22 +239,25 @@ def wls(W, y, groups, level: float = 0.95, names=None) -> Estimate:
     if g.dtype.kind == "f" and not np.all(np.isfinite(g)):
         raise InputError("groups contains NaN or infinite labels; give every row an integer group (joint) label.")
     _check_dof(N, p, "W")
-    labels, inverse, counts = np.unique(g, return_inverse=True, return_counts=True)
-    small = labels[counts <= p]
-    if small.size:
-        raise InputError(
-            f"groups {small.tolist()} have <= {p} rows; sigma_j^2 = |r_j|^2 / (N_j - p) needs N_j > p rows "
-            "per group. Merge small groups or use ols()."
-        )
-    theta0, _, _ = _svd_solve(W, y, names, "W")
-    r = y - W @ theta0
-    ss = np.bincount(inverse, weights=r * r, minlength=labels.size)
-    sig = np.sqrt(ss / (counts - p))
-    if np.any(sig <= 0.0):
-        raise InputError(
-            f"groups {labels[sig <= 0].tolist()} are fitted exactly (zero residuals), so their weight 1/sigma_j "
-            "is infinite. The data look noise-free: use ols() or a set-membership estimator."
-        )
+    _svd_solve(W, y, names, "W")  # rank check of the whole regression, naming lost combinations
+    labels, inverse = np.unique(g, return_inverse=True)
+    sig = np.empty(labels.size)
+    for j in range(labels.size):
+        rows = inverse == j
+        theta_j, _, c_j, _ = np.linalg.lstsq(W[rows], y[rows])
+        n_j = int(rows.sum())
+        if n_j <= c_j:
+            raise InputError(
+                f"group {labels[j].item()!r} has {n_j} rows for rank(W_j) = {c_j}; sigma_j^2 = "
+                f"|r_j|^2 / (N_j - rank W_j) needs N_j > rank W_j. Merge small groups or use ols()."
+            )
+        r = y[rows] - W[rows] @ theta_j
+        if np.linalg.norm(r) <= 1e-12 * np.linalg.norm(y[rows]):
+            raise InputError(
+                f"group {labels[j].item()!r} is fitted exactly (residuals at rounding level), so its weight "
+                "1/sigma_j is infinite. The data look noise-free: use ols() or a set-membership estimator."
+            )
+        sig[j] = np.sqrt(r @ r / (n_j - c_j))
     row_w = 1.0 / sig[inverse]
     Ws, ys = W * row_w[:, None], y * row_w
     est = ols(Ws, ys, level=level, names=names)

@@ -50,8 +50,8 @@ def filter_loop(W, y, r, inv_lam, Q, theta, P, state, record_every, n0):
     Q : (p, p) random-walk covariance added to P before each row, or (0, 0) for none
     theta : (p,), P : (p, p)   state, updated in place
     state : (3,) [ln det P, J, n_eff], updated in place (ln det P is recomputed when Q is used)
-    record_every : record the state after every sample whose 1-based count is a multiple of it
-                   (0: never); n0 = samples already processed before this call
+    record_every : record the state after every sample whose 1-based count is a multiple of it,
+                   and after the last row (0: never); n0 = samples already processed before this call
 
     Returns (index, centers, log_det_P, J, n_eff) at the recorded samples.
     """
@@ -62,6 +62,8 @@ def filter_loop(W, y, r, inv_lam, Q, theta, P, state, record_every, n0):
     n_rec = 0
     if record_every > 0:
         n_rec = (n0 + N) // record_every - n0 // record_every
+        if N > 0 and (n0 + N) % record_every != 0:
+            n_rec += 1  # the last row
     rec_idx = np.empty(n_rec, dtype=np.int64)
     rec_c = np.empty((n_rec, p))
     rec_ld = np.empty(n_rec)
@@ -98,7 +100,7 @@ def filter_loop(W, y, r, inv_lam, Q, theta, P, state, record_every, n0):
         logdet += np.log(lam * rk * c) - log_lam_p
         J = lam * (J + e * ec)
         neff = lam * neff + 1.0
-        if record_every > 0 and (n0 + k + 1) % record_every == 0:
+        if record_every > 0 and ((n0 + k + 1) % record_every == 0 or k == N - 1):
             if has_q:
                 logdet = np.linalg.slogdet(P)[1]
             rec_idx[m] = n0 + k
@@ -170,9 +172,9 @@ class LinearFilter(ABC):
         if rec[0].size:
             self._chunks.append(rec)
 
-    def _record_one(self):
-        """After a single-row step: record the state if this sample is due."""
-        if self.record_every > 0 and self.n % self.record_every == 0:
+    def _record_one(self, last: bool = False):
+        """After a single-row step: record the state if this sample is due (or is the last of a batch)."""
+        if self.record_every > 0 and (last or self.n % self.record_every == 0):
             self._chunks.append(
                 (
                     np.array([self.n - 1]),
@@ -245,7 +247,8 @@ class RLS(LinearFilter):
     theta0 : (p,)              initial estimate; default 0 (direct-drive paper)
     P0 : (p, p) or scalar      initial "covariance" P(0); a scalar means P0 * I; default 1000 I (paper)
     forgetting : float         lambda in (0, 1]; 1 = no forgetting (paper)
-    record_every : int         keep the centre every that many samples in ``history`` (0: none)
+    record_every : int         keep the centre every that many samples, and after each ``fit``, in
+                               ``history`` (0: none)
     names : p parameter names
     level : confidence level of the reported ellipsoid and intervals
 
