@@ -89,6 +89,8 @@ def test_parameter_convergence_draws_each_history_and_truth():
         assert line.get_color().lower() == PALETTE["OBE-factorized"].lower()
         assert np.allclose(ax.lines[-1].get_ydata(), TRUTH[j])  # the dashed truth line
     assert fig.axes[1].get_ylabel() == "I^2 [kg m^2]"
+    thinned = parameter_convergence(t, {"RLS": h}, max_points=10)  # 30 points -> every 3rd
+    np.testing.assert_array_equal(thinned.axes[2].lines[0].get_ydata(), h.centers[::3, 2])
 
 
 def test_parameter_convergence_rejects_mismatched_histories():
@@ -349,8 +351,13 @@ def test_write_index_links_every_study(study_page):
     parser.feed(out.read_text())
     assert parser.urls == ["toy/index.html"]
     assert "Toy study &lt;1&gt;" in out.read_text()
+    assert "A toy set-up &amp; three parameters." in out.read_text()  # the page's meta description
+    out = write_index(root, [("toy", "Given title", "toy/index.html")])
+    assert "Given title" in out.read_text() and "Toy study" not in out.read_text()
     with pytest.raises(InputError, match="does not exist"):
         write_index(root, ["missing"])
+    with pytest.raises(InputError, match="entry"):
+        write_index(root, [("toy",)])
 
 
 def test_page_size_limit_and_input_checks(tmp_path):

@@ -132,6 +132,11 @@ def _robust_limits(values: list[np.ndarray], margin: float = 0.08) -> tuple[floa
     return lo - pad, hi + pad
 
 
+def _stride(n: int, max_points: int) -> slice:
+    """Every k-th sample so that at most ``max_points`` are drawn."""
+    return slice(None, None, max(1, -(-n // max_points)))
+
+
 def parameter_convergence(
     t,
     histories: Mapping[str, object],
@@ -140,6 +145,7 @@ def parameter_convergence(
     *,
     units: Sequence[str] | None = None,
     transient: float = 0.05,
+    max_points: int = 4000,
 ) -> Figure:
     """theta_hat against time, one subplot per parameter, one line per estimator.
 
@@ -156,6 +162,7 @@ def parameter_convergence(
         The y-limits ignore the first ``transient`` fraction of each trace, so that the large
         initial swings of recursive estimators do not flatten the converged part (the lines are
         still drawn in full).
+    max_points : longer traces are drawn with every k-th recorded point only (figure size).
     """
     if not histories:
         raise InputError("parameter_convergence needs at least one history.")
@@ -172,9 +179,10 @@ def parameter_convergence(
         raise InputError(f"names and truth must have p = {p} entries.")
     fig, axes = _panel_figure(p)
     for label, (index, centers) in traces.items():
-        x = _x_axis(t, index)
+        s = _stride(index.shape[0], max_points)
+        x = _x_axis(t, index)[s]
         for j, ax in enumerate(axes):
-            ax.plot(x, centers[:, j], color=color_for(label), lw=1.2, label=label)
+            ax.plot(x, centers[s, j], color=color_for(label), lw=1.2, label=label)
     for j, ax in enumerate(axes):
         tails = [c[int(transient * c.shape[0]) :, j] for _, c in traces.values()]
         if truth is not None:
@@ -191,10 +199,6 @@ def parameter_convergence(
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside upper center", ncols=min(len(labels), 5), frameon=False)
     return fig
-
-
-def _stride(n: int, max_points: int) -> slice:
-    return slice(None, None, max(1, -(-n // max_points)))
 
 
 def torque_bounds(
@@ -427,12 +431,13 @@ def log_volume_bars(log_volumes_per_dim: Mapping[str, float]) -> Figure:
     return fig
 
 
-def volume_history(histories: Mapping[str, object], t=None) -> Figure:
+def volume_history(histories: Mapping[str, object], t=None, *, max_points: int = 4000) -> Figure:
     """ln volume of the set against sample (or time), one line per recursive set estimator.
 
     histories : {label: (index (K,), log_volumes (K,))} or {label: History};
         traces that are all NaN (point estimators) are skipped.
     t : (N,) [s] or None, as in :func:`parameter_convergence`.
+    max_points : longer traces are drawn with every k-th recorded point only.
     """
     fig = Figure(figsize=(5.5, 3.2), dpi=DPI, layout="constrained")
     ax = fig.subplots()
@@ -443,7 +448,8 @@ def volume_history(histories: Mapping[str, object], t=None) -> Figure:
             raise InputError(f"history {label!r}: index {index.shape} and log_volumes {logv.shape} differ.")
         if np.all(np.isnan(logv)):
             continue
-        ax.plot(_x_axis(t, index), logv, color=color_for(label), lw=1.3, label=label)
+        s = _stride(index.shape[0], max_points)
+        ax.plot(_x_axis(t, index)[s], logv[s], color=color_for(label), lw=1.3, label=label)
         drawn += 1
     if drawn == 0:
         raise InputError("volume_history needs at least one history with finite log-volumes.")

@@ -18,7 +18,7 @@ import base64
 import html
 import io
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from html.parser import HTMLParser
 from pathlib import Path
@@ -313,28 +313,44 @@ class _HeadReader(HTMLParser):
             self.title += data
 
 
-def write_index(reports_dir: str | Path, studies: Mapping[str, str] | Sequence[str] | None = None,
-                title: str = "boundid reports", description: str = "") -> Path:
-    """Write ``<reports_dir>/index.html`` linking every study page ``<reports_dir>/<study>/index.html``.
+def _index_entries(root: Path, studies) -> list[tuple[str, str | None, Path]]:
+    """Normalise ``studies`` to (name, title or None, page path relative to root)."""
+    if studies is None:
+        return [(p.parent.name, None, p.relative_to(root)) for p in sorted(root.glob("*/index.html"))]
+    if isinstance(studies, Mapping):
+        return [(name, title, Path(name) / "index.html") for name, title in studies.items()]
+    out = []
+    for entry in studies:
+        if isinstance(entry, str):
+            out.append((entry, None, Path(entry) / "index.html"))
+        elif isinstance(entry, tuple) and len(entry) in (2, 3):
+            name, title = entry[0], entry[1]
+            out.append((name, title, Path(entry[2]) if len(entry) == 3 else Path(name) / "index.html"))
+        else:
+            raise InputError(f"write_index: a study entry must be a name, (name, title) or (name, title, page); "
+                             f"got {entry!r}.")
+    return out
 
-    studies : {name: one-line description}, a list of names, or None for every
-        ``<reports_dir>/*/index.html`` found. Missing descriptions are taken from each page's
-        title and meta description.
+
+def write_index(reports_dir: str | Path, studies=None, title: str = "boundid reports", description: str = "") -> Path:
+    """Write ``<reports_dir>/index.html`` linking every study page.
+
+    studies : None (every ``<reports_dir>/*/index.html`` found), ``{name: title}``, or a sequence
+        of ``name``, ``(name, title)`` or ``(name, title, page path relative to reports_dir)``;
+        the default page is ``<name>/index.html``. A missing title is read from the page's
+        <title>; the page's meta description is shown under it.
     """
     root = Path(reports_dir)
-    if studies is None:
-        studies = sorted(p.parent.name for p in root.glob("*/index.html"))
-    entries = studies.items() if isinstance(studies, Mapping) else ((name, None) for name in studies)
     items = []
-    for name, desc in entries:
-        page = root / name / "index.html"
+    for name, given_title, rel in _index_entries(root, studies):
+        page = root / rel
         if not page.is_file():
             raise InputError(f"study page {page} does not exist; run study {name!r} first or leave it out.")
         head = _HeadReader()
         head.feed(page.read_text(encoding="utf-8"))
-        label = head.title.strip() or name
-        text = desc if desc is not None else head.description
-        items.append(f'<li><a href="{html.escape(name)}/index.html"><b>{html.escape(label)}</b></a> '
+        label = given_title or head.title.strip() or name
+        text = head.description
+        items.append(f'<li><a href="{html.escape(rel.as_posix())}"><b>{html.escape(label)}</b></a> '
                      f'<code>{html.escape(name)}</code>' + (f"<br>{html.escape(text)}" if text else "") + "</li>")
     body = (_paragraphs(description) if description else "") + '<ul class="studies">' + "".join(items) + "</ul>"
     out = root / "index.html"
