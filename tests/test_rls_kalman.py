@@ -1,0 +1,191 @@
+"""RLS and the Kalman estimator against OLS, the closed-form weighted LS, filterpy and Monte Carlo."""
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from boundid.errors import InputError
+from boundid.estimators import RLS, KalmanEstimator, ols
+from boundid.estimators.rls import PAPER_P0
+from boundid.sets import log_unit_ball_volume
+
+
+def _problem(seed, N=200, p=4, sigma=0.1):
+    rng = np.random.default_rng(seed)
+    W = rng.normal(size=(N, p)) * np.linspace(0.5, 2.0, p)
+    theta = rng.normal(size=p)
+    return rng, W, theta, W @ theta + sigma * rng.normal(size=N)
+
+
+def test_rls_with_large_prior_equals_ols():
+    """Reference: ols() (numpy SVD least squares): centre, covariance (relative to its norm), intervals to 1e-6."""
+    _, W, _, y = _problem(0)
+    est = RLS(4, P0=1e8, names=list("abcd")).fit(W, y)
+    ref = ols(W, y)
+    np.testing.assert_allclose(est.center, ref.center, rtol=1e-6)
+    np.testing.assert_allclose(est.info["cov"], ref.info["cov"], rtol=1e-6, atol=1e-6 * np.abs(ref.info["cov"]).max())
+    np.testing.assert_allclose(est.intervals, ref.intervals, rtol=1e-6)
+    assert est.ellipsoid.log_volume() == pytest.approx(ref.ellipsoid.log_volume(), abs=1e-6)
+    assert est.info["condition_number"] == pytest.approx(ref.info["condition_number"], rel=1e-6)
+    assert est.kind == "statistical" and est.info["guaranteed"] is False and est.info["dof"] == 196
+    assert est.names == tuple("abcd") and est.info["n_samples"] == 200
+
+
+def test_rls_forgetting_equals_weighted_ls_closed_form():
+    """Reference: the minimiser of sum lam^(N-i) e_i^2 + lam^N (th - th0)^T P0^-1 (th - th0) (paper eqs. 18-19)."""
+    _, W, _, y = _problem(1, N=60)
+    lam, th0, P0 = 0.97, np.array([0.5, -0.2, 0.1, 1.0]), np.diag([10.0, 5.0, 2.0, 1.0])
+    rls = RLS(4, theta0=th0, P0=P0, forgetting=lam)
+    rls.fit(W, y)
+    wgt = lam ** np.arange(59, -1, -1.0)
+    A = lam**60 * np.linalg.inv(P0) + (W * wgt[:, None]).T @ W
+    theta = np.linalg.solve(A, lam**60 * np.linalg.solve(P0, th0) + W.T @ (wgt * y))
+    np.testing.assert_allclose(rls.theta, theta, rtol=1e-10)
+    np.testing.assert_allclose(rls.P, np.linalg.inv(A), rtol=1e-9)
+    J = wgt @ (y - W @ theta) ** 2 + lam**60 * (theta - th0) @ np.linalg.solve(P0, theta - th0)
+    assert rls.J == pytest.approx(J, rel=1e-9)
+    assert rls.n_eff == pytest.approx(wgt.sum(), rel=1e-12)
+    assert rls.logdet == pytest.approx(-np.linalg.slogdet(A)[1], rel=1e-9)
+
+
+def test_rls_numba_fit_equals_numpy_updates_and_resumes():
+    """Reference: RLS.update (numpy, row by row); and one fit over all rows against two successive fits."""
+    _, W, _, y = _problem(2, N=120)
+    a = RLS(4, record_every=7)
+    errs = [a.update(w, v) for w, v in zip(W, y, strict=True)]
+    b = RLS(4, record_every=7)
+    b.fit(W[:50], y[:50])
+    est = b.fit(W[50:], y[50:])
+    np.testing.assert_allclose(b.theta, a.theta, rtol=1e-10)
+    np.testing.assert_allclose(b.P, a.P, rtol=1e-8, atol=1e-14)
+    assert b.J == pytest.approx(a.J, rel=1e-10) and b.n == a.n == 120
+    assert errs[0] == pytest.approx(y[0])  # theta0 = 0: the first a-priori error is y itself
+    # history: every 7th sample, plus the last row of each fit (49 and 119)
+    expected = np.union1d(np.arange(6, 120, 7), [49, 119])
+    np.testing.assert_array_equal(est.history.index, expected)
+    ha = a.history
+    common = np.isin(ha.index, est.history.index)
+    np.testing.assert_allclose(est.history.centers[np.isin(est.history.index, ha.index)], ha.centers[common],
+                               rtol=1e-8, atol=1e-10)
+    assert est.history.log_volumes[-1] == pytest.approx(est.ellipsoid.log_volume(), rel=1e-8)
+
+
+def test_rls_paper_defaults_and_early_state():
+    """Reference: the direct-drive paper's theta(0) = 0, P(0) = 1000 I; no variance estimate while n <= p."""
+    rls = RLS(9)
+    np.testing.assert_array_equal(rls.theta, np.zeros(9))
+    np.testing.assert_array_equal(rls.P, PAPER_P0 * np.eye(9))
+    assert PAPER_P0 == 1000.0
+    rng = np.random.default_rng(3)
+    est = rls.fit(rng.normal(size=(5, 9)), rng.normal(size=5))
+    assert est.ellipsoid is None and np.all(np.isinf(est.intervals[1]))
+    assert np.all(np.isnan(est.history.log_volumes))
+
+
+@pytest.mark.parametrize("engine", ["numba", "filterpy"])
+def test_kalman_q0_r1_equals_rls(engine):
+    """Reference: RLS (lambda = 1): with Q = 0 and R = 1 the Kalman filter is the same recursion, to 1e-9."""
+    _, W, _, y = _problem(4, N=150)
+    rls = RLS(4, theta0=np.ones(4), P0=50.0)
+    rls.fit(W, y)
+    kf = KalmanEstimator(4, np.ones(4), 50.0, R=1.0, Q=0.0)
+    est = kf.fit(W, y, engine=engine)
+    np.testing.assert_allclose(kf.theta, rls.theta, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(kf.P, rls.P, rtol=1e-9, atol=1e-15)
+    assert kf.J == pytest.approx(rls.J, rel=1e-9)
+    assert est.kind == "statistical" and est.info["guaranteed"] is False
+
+
+def test_kalman_numba_equals_filterpy():
+    """Reference: filterpy.kalman.KalmanFilter (predict + update, Joseph form): per-row R, Q > 0, history, 1e-9."""
+    rng, W, _, y = _problem(5, N=150)
+    R = rng.uniform(0.005, 0.05, size=150)
+    Q = 1e-5 * np.diag([1.0, 2.0, 0.0, 0.5])
+    args = (4, rng.normal(size=4), np.diag([4.0, 3.0, 2.0, 1.0]), 0.01)
+    a = KalmanEstimator(*args, Q=Q, record_every=10)
+    b = KalmanEstimator(*args, Q=Q, record_every=10)
+    ea = a.fit(W, y, R=R, engine="filterpy")
+    eb = b.fit(W, y, R=R, engine="numba")
+    np.testing.assert_allclose(eb.center, ea.center, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(b.P, a.P, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(eb.intervals, ea.intervals, rtol=1e-9)
+    np.testing.assert_array_equal(eb.history.index, ea.history.index)
+    np.testing.assert_allclose(eb.history.centers, ea.history.centers, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(eb.history.log_volumes, ea.history.log_volumes, rtol=1e-9)
+    assert eb.info["nis"] == pytest.approx(ea.info["nis"], rel=1e-9)
+    # single-row updates through filterpy continue the same state
+    a.update(W[0], y[0], R=0.02)
+    b.fit(W[:1], y[:1], R=0.02)
+    np.testing.assert_allclose(a.theta, b.theta, rtol=1e-9)
+
+
+def test_kalman_posterior_closed_form():
+    """Reference: the Gaussian posterior P = (P0^-1 + W^T W / r)^-1, mean P (P0^-1 th0 + W^T y / r); z intervals."""
+    _, W, _, y = _problem(6, N=40)
+    th0, P0, r = np.zeros(4), np.diag([2.0, 1.0, 0.5, 3.0]), 0.04
+    est = KalmanEstimator(4, th0, P0, R=r, level=0.9).fit(W, y)
+    P = np.linalg.inv(np.linalg.inv(P0) + W.T @ W / r)
+    mean = P @ (W.T @ y / r)
+    np.testing.assert_allclose(est.center, mean, rtol=1e-9)
+    np.testing.assert_allclose(est.info["cov"], P, rtol=1e-9)
+    z = stats.norm.ppf(0.95)
+    np.testing.assert_allclose(est.intervals[1], mean + z * np.sqrt(np.diag(P)), rtol=1e-9)
+    np.testing.assert_allclose(est.ellipsoid.shape, stats.chi2.ppf(0.9, 4) * P, rtol=1e-9)
+    lv = log_unit_ball_volume(4) + 0.5 * np.linalg.slogdet(stats.chi2.ppf(0.9, 4) * P)[1]
+    assert est.history.log_volumes[-1] == pytest.approx(lv, rel=1e-9)
+
+
+def test_coverage_gaussian_and_uniform(record_property):
+    """Reference: the nominal 95 % level over 300 runs (RLS: Student t / chi2; Kalman with the true R: normal)."""
+    rng = np.random.default_rng(7)
+    theta = np.array([1.0, -2.0, 0.5])
+    hits = {"rls": 0, "rls_ell": 0, "kf": 0, "kf_ell": 0, "rls_unif": 0}
+    runs = 300
+    for _ in range(runs):
+        W = rng.normal(size=(100, 3))
+        y = W @ theta + 0.2 * rng.normal(size=100)
+        e = RLS(3, P0=1e8, record_every=0).fit(W, y)
+        hits["rls"] += np.sum((e.intervals[0] <= theta) & (theta <= e.intervals[1]))
+        hits["rls_ell"] += e.contains(theta)
+        k = KalmanEstimator(3, None, 1e8, R=0.04, record_every=0).fit(W, y)
+        hits["kf"] += np.sum((k.intervals[0] <= theta) & (theta <= k.intervals[1]))
+        hits["kf_ell"] += k.contains(theta)
+        yu = W @ theta + rng.uniform(-0.3, 0.3, size=100)
+        u = RLS(3, P0=1e8, record_every=0).fit(W, yu)
+        hits["rls_unif"] += np.sum((u.intervals[0] <= theta) & (theta <= u.intervals[1]))
+    cov = {k: v / (runs * (1 if k.endswith("ell") else 3)) for k, v in hits.items()}
+    for k, v in cov.items():
+        record_property(f"coverage_{k}", v)
+    print("coverage:", {k: round(v, 3) for k, v in cov.items()})
+    for v in cov.values():
+        assert abs(v - 0.95) <= 0.03
+
+
+@pytest.mark.parametrize(
+    "call, match",
+    [
+        (lambda: RLS(0), "positive integer"),
+        (lambda: RLS(3, forgetting=0.0), "forgetting"),
+        (lambda: RLS(3, forgetting=1.5), "forgetting"),
+        (lambda: RLS(3, P0=-1.0), "P0"),
+        (lambda: RLS(3, P0=np.diag([1.0, -1.0, 1.0])), "positive definite"),
+        (lambda: RLS(3, theta0=np.zeros(2)), "theta0"),
+        (lambda: RLS(3, record_every=-1), "record_every"),
+        (lambda: RLS(3, names=["a", "b"]), "names"),
+        (lambda: RLS(3, level=1.0), "level"),
+        (lambda: RLS(3).fit(np.full((5, 3), np.nan), np.zeros(5)), "NaN"),
+        (lambda: RLS(3).fit(np.zeros((5, 4)), np.zeros(5)), "3 columns"),
+        (lambda: RLS(3).fit(np.zeros((5, 3)), np.zeros(4)), "rows"),
+        (lambda: RLS(3).update(np.zeros(2), 1.0), "length 3"),
+        (lambda: RLS(3).update(np.zeros(3), np.nan), "NaN"),
+        (lambda: KalmanEstimator(3, None, 1.0, R=0.0), "R"),
+        (lambda: KalmanEstimator(3, None, 1.0, R=1.0, Q=-1.0), "Q"),
+        (lambda: KalmanEstimator(3, None, 1.0, R=1.0, Q=np.ones((2, 2))), "Q"),
+        (lambda: KalmanEstimator(3, None, 1.0, R=1.0).fit(np.zeros((5, 3)), np.zeros(5), R=np.ones(4)), "R"),
+        (lambda: KalmanEstimator(3, None, 1.0, R=1.0).fit(np.zeros((5, 3)), np.zeros(5), engine="x"), "engine"),
+    ],
+)
+def test_bad_input_raises_input_error(call, match):
+    """Reference: the documented InputError for each malformed argument."""
+    with pytest.raises(InputError, match=match):
+        call()
