@@ -22,6 +22,9 @@ KAPPA = 1e-8
 
 CRITERIA = {"volume": 0, "trace": 1, "dasgupta-huang": 2}
 
+# Let LLVM reassociate the O(n^2) loops (SIMD reductions); NaN/inf semantics are kept.
+FASTMATH = {"reassoc", "contract", "nsz"}
+
 
 @njit(cache=True)
 def weight_volume(n, sigma, G, eps):
@@ -153,7 +156,7 @@ def _record(j, k, c, lv, hist_idx, hist_c, hist_lv):
     hist_lv[j] = lv
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def run_standard(P, c, state, W, Y, E, crit, selective, alpha_max, stop_on_outlier, k0, record_every,
                  log_ball, hist_idx, hist_c, hist_lv, hist_S, out_idx, out_res, counts):
     """Standard (information-matrix) OBE over the rows of W, in place (seed eq. (28)-(30)).
@@ -171,6 +174,7 @@ def run_standard(P, c, state, W, Y, E, crit, selective, alpha_max, stop_on_outli
     n_upd = n_skip = n_out = n_rec = n_brk = 0
     want_shapes = hist_S.shape[0] > 0
     processed = N
+    countdown = record_every - k0 % record_every  # record after global samples (k + 1) % record_every == 0
     for i in range(N):
         ei = E[i]
         yi = Y[i]
@@ -233,7 +237,10 @@ def run_standard(P, c, state, W, Y, E, crit, selective, alpha_max, stop_on_outli
                 else:
                     n_skip += 1
         k = k0 + i
-        if (k + 1) % record_every == 0 or i == N - 1:
+        countdown -= 1
+        if countdown == 0 or i == N - 1:
+            if countdown == 0:
+                countdown = record_every
             _record(n_rec, k, c, log_ball + 0.5 * n * math.log(sigma) - 0.5 * logdet, hist_idx, hist_c, hist_lv)
             if want_shapes:
                 for a in range(n):
@@ -255,7 +262,7 @@ def back_substitute(X, z, out):
         out[a] = s / X[a, a]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_outlier, k0, record_every,
                    log_ball, hist_idx, hist_c, hist_lv, hist_S, out_idx, out_res, counts):
     """Factorized (square-root information) OBE, in place (REFERENCES §2, seed eq. (33)-(35)).
@@ -272,19 +279,23 @@ def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_
     row = np.empty(n)
     Xinv = np.empty((n, n))
     unit = np.empty(n)
+    dinv = np.empty(n)
+    for a in range(n):
+        dinv[a] = 1.0 / X[a, a]
     sigma, T = state[0], state[2]
     n_upd = n_skip = n_out = n_rec = 0
     want_shapes = hist_S.shape[0] > 0
     dirty = False
     processed = N
+    countdown = record_every - k0 % record_every  # record after global samples (k + 1) % record_every == 0
     for i in range(N):
         ei = E[i]
         yi = Y[i]
         for a in range(n):  # v = X^-T w (forward substitution, row access)
             v[a] = W[i, a]
         for a in range(n):
-            v[a] /= X[a, a]
-            va = v[a]
+            va = v[a] * dinv[a]
+            v[a] = va
             for b in range(a + 1, n):
                 v[b] -= X[a, b] * va
         G = 0.0
@@ -322,32 +333,38 @@ def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_
                 sl = math.sqrt(lam) * s
                 for a in range(n):
                     row[a] = sl * W[i, a]
-                    z[a] *= sa
-                    for b in range(a, n):
-                        X[a, b] *= sa
                 ry = sl * yc
-                for a in range(n):  # Givens rotations zeroing the appended row
-                    xa = X[a, a]
+                # Givens rotations zeroing the appended row of [sqrt(alpha) X, sqrt(alpha) z; row, ry];
+                # the sqrt(alpha) scaling is folded into the rotation (one pass over X).
+                for a in range(n):
+                    xa = sa * X[a, a]
                     ra = row[a]
-                    rr = math.hypot(xa, ra)
-                    ct = xa / rr
-                    st = ra / rr
+                    rr = math.sqrt(xa * xa + ra * ra)
+                    inv = 1.0 / rr
+                    ct = xa * inv
+                    st = ra * inv
+                    cs = ct * sa
+                    ss = st * sa
                     X[a, a] = rr
+                    dinv[a] = inv
                     for b in range(a + 1, n):
                         xb = X[a, b]
                         rb = row[b]
-                        X[a, b] = ct * xb + st * rb
-                        row[b] = ct * rb - st * xb
+                        X[a, b] = cs * xb + st * rb
+                        row[b] = ct * rb - ss * xb
                     za = z[a]
-                    z[a] = ct * za + st * ry
-                    ry = ct * ry - st * za
+                    z[a] = cs * za + st * ry
+                    ry = ct * ry - ss * za
                 sigma = alpha * sigma + lam - ry * ry
                 if crit == 1:
                     T = (T - lam * Hn / (alpha + lam * Gn)) / alpha if alpha > 0.0 else 1.0 / (X[0, 0] * X[0, 0])
             else:
                 n_skip += 1
         k = k0 + i
-        if (k + 1) % record_every == 0 or i == N - 1:
+        countdown -= 1
+        if countdown == 0 or i == N - 1:
+            if countdown == 0:
+                countdown = record_every
             if dirty:
                 back_substitute(X, z, c)
                 dirty = False

@@ -1,0 +1,356 @@
+"""Tests of the recursive OBE estimators (boundid.estimators.obe and its numba kernels)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from scipy.optimize import minimize_scalar
+
+from boundid.errors import InfeasibleDataError, InputError, SolverError
+from boundid.estimators import OBE
+from boundid.estimators import _obe_kernels as K
+from boundid.sets import Polytope
+
+CRITERIA = ("volume", "trace", "dasgupta-huang")
+FORMS = ("standard", "factorized")
+
+
+def _problem(rng, p, N, e=0.5, scale=1.0):
+    theta = rng.normal(size=p)
+    W = scale * rng.normal(size=(N, p))
+    e_max = e * rng.uniform(0.5, 1.5, N)
+    y = W @ theta + rng.uniform(-1.0, 1.0, N) * e_max
+    return theta, W, y, e_max
+
+
+def _maha(theta, centers, shapes):
+    d = theta - centers
+    return np.einsum("ki,ki->k", d, np.linalg.solve(shapes, d[..., None])[..., 0])
+
+
+# ---------------------------------------------------------------------------- the guarantee
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1), p=st.integers(1, 5), N=st.integers(1, 80),
+       form=st.sampled_from(FORMS), criterion=st.sampled_from(CRITERIA), selective=st.booleans(),
+       scale=st.sampled_from([1e-3, 1.0, 1e3]))
+def test_truth_inside_every_ellipsoid_of_the_history(seed, p, N, form, criterion, selective, scale):
+    """Guarantee (no reference needed): with theta in E0 and every error inside its bound, theta is
+    inside every recorded ellipsoid, for both forms, all criteria, selective or not. Zero misses
+    (the 1e-9 slack is rounding of the Mahalanobis distance only)."""
+    rng = np.random.default_rng(seed)
+    theta, W, y, e = _problem(rng, p, N, scale=scale)
+    est = OBE(p, shape0=100.0 * p, criterion=criterion, form=form, selective=selective,
+              record_shapes=True).fit(W, y, e)
+    assert est.outliers.size == 0
+    assert len(est.history) == N
+    d2 = _maha(theta, est.history.centers, est.history.shapes)
+    assert np.all(d2 <= 1.0 + 1e-9), (d2.max(), np.argmax(d2))
+    assert est.contains(theta)
+    assert np.all(np.isfinite(est.history.log_volumes))
+
+
+def test_one_dimensional_obe_is_the_exact_interval_intersection():
+    """p = 1: the clipped volume/trace step is q* = inf, i.e. the exact intersection of the
+    intervals; reference = running max/min of the interval ends (closed form)."""
+    rng = np.random.default_rng(0)
+    theta, W, y, e = _problem(rng, 1, 30)
+    lo = np.maximum.accumulate(np.minimum((y - e) / W[:, 0], (y + e) / W[:, 0]))
+    hi = np.minimum.accumulate(np.maximum((y - e) / W[:, 0], (y + e) / W[:, 0]))
+    lo, hi = np.maximum(lo, -10.0), np.minimum(hi, 10.0)
+    for form in FORMS:
+        for crit in ("volume", "trace"):
+            est = OBE(1, shape0=100.0, form=form, criterion=crit).fit(W, y, e)
+            np.testing.assert_allclose(est.intervals[0], lo[-1:], rtol=1e-10, atol=1e-12)
+            np.testing.assert_allclose(est.intervals[1], hi[-1:], rtol=1e-10, atol=1e-12)
+
+
+# ---------------------------------------------------------------------------- the two forms
+@pytest.mark.parametrize("criterion", CRITERIA)
+def test_standard_and_factorized_forms_agree(criterion):
+    """Second algorithm: the Sherman-Morrison recursion and the Givens QR recursion are the same
+    mathematics; on well-conditioned data centre and shape agree to 1e-8 relative. (Over many
+    thousands of updates the two drift apart slowly: the recursion amplifies rounding.)"""
+    rng = np.random.default_rng(7)
+    theta, W, y, e = _problem(rng, 5, 300)
+    a = OBE(5, shape0=50.0, form="standard", criterion=criterion).fit(W, y, e)
+    b = OBE(5, shape0=50.0, form="factorized", criterion=criterion).fit(W, y, e)
+    assert a.info["n_updates"] == b.info["n_updates"] > 10
+    scale = np.abs(a.ellipsoid.shape).max()
+    assert np.abs(a.ellipsoid.shape - b.ellipsoid.shape).max() <= 1e-8 * scale
+    assert np.abs(a.center - b.center).max() <= 1e-8 * np.sqrt(scale)
+    np.testing.assert_allclose(a.history.log_volumes, b.history.log_volumes, rtol=1e-9)
+    assert a.info["sigma"] == pytest.approx(b.info["sigma"], rel=1e-8)
+
+
+def _ill_conditioned(seed):
+    rng = np.random.default_rng(seed)
+    p = 6
+    theta = rng.normal(size=p)
+    U, _ = np.linalg.qr(rng.normal(size=(p, p)))
+    W1 = (rng.normal(size=(2000, p)) * np.logspace(0, -8, p)) @ U.T  # cond(W1) ~ 1e8
+    W2 = rng.normal(size=p) + 1e-8 * rng.normal(size=(5000, p))  # nearly collinear run
+    W = np.vstack([W1, W2])
+    e = 1e-6
+    return theta, W, W @ theta + rng.uniform(-e, e, W.shape[0]), e
+
+
+@pytest.mark.parametrize("seed", [0, 2])
+def test_factorized_form_survives_ill_conditioning_where_standard_breaks(seed):
+    """Numerical robustness (seed 000 §III.B): on cond(W) ~ 1e7-1e8 data followed by 5000 nearly
+    collinear rows, the square-root form stays finite, positive definite (X has a positive
+    diagonal, Cholesky of its shape succeeds) and still contains the truth; the standard form's
+    M^-1 loses definiteness (a negative eigenvalue, steps with w^T M^-1 w <= 0)."""
+    theta, W, y, e = _ill_conditioned(seed)
+    assert np.linalg.cond(W) > 1e6
+    fac = OBE(6, shape0=100.0, form="factorized", record_every=500)
+    est = fac.fit(W, y, e)
+    assert np.all(np.isfinite(fac._X)) and np.all(np.diag(fac._X) > 0)
+    np.linalg.cholesky(est.ellipsoid.shape)
+    assert est.contains(theta)
+    std = OBE(6, shape0=100.0, form="standard", record_every=500)
+    with pytest.raises(SolverError, match="positive definiteness"):
+        std.fit(W, y, e)
+    assert np.linalg.eigvalsh(0.5 * (std._P + std._P.T))[0] < 0
+    assert std.n_breakdowns > 0
+
+
+# ---------------------------------------------------------------------------- the weights
+def _sigma_q(q, sigma, G, eps):  # REFERENCES §1 pencil, gamma = 1
+    return sigma + q - q * eps**2 / (1.0 + q * G)
+
+
+def _weight_cases(rng, n_cases):
+    for _ in range(n_cases):
+        n = int(rng.integers(2, 9))
+        A = rng.normal(size=(n, n))
+        P = A @ A.T + 0.05 * np.eye(n)
+        w = rng.normal(size=n)
+        sigma = rng.uniform(0.1, 3.0)
+        g = P @ w
+        G = w @ g
+        r = np.sqrt(sigma * G)
+        gam = rng.uniform(0.02, 1.0) * r  # a clipped strip: |eps| + gam <= r
+        eps = rng.uniform(-1.0, 1.0) * (r - gam)
+        yield n, sigma, G / gam**2, eps / gam, np.trace(P), (g @ g) / gam**2
+
+
+def test_volume_weight_minimises_the_volume():
+    """Closed-form Fogel-Huang weight vs scipy.optimize.minimize_scalar of
+    n ln sigma'(q) - ln(1 + q G) (ln volume up to a constant) over ln q."""
+    rng = np.random.default_rng(1)
+    for n, sigma, G, eps, _, _ in _weight_cases(rng, 300):
+        def f(q, n=n, sigma=sigma, G=G, eps=eps):
+            return n * np.log(_sigma_q(q, sigma, G, eps)) - np.log1p(q * G)
+        lam, alpha = K.weight_volume(n, sigma, G, eps)
+        assert lam + alpha == pytest.approx(1.0)
+        num = minimize_scalar(lambda u, f=f: f(np.exp(u)), bounds=(-40, 40), method="bounded",
+                              options={"xatol": 1e-12})
+        q_num = np.exp(num.x)
+        if lam == 0.0:
+            assert f(q_num) >= f(0.0) - 1e-9  # no reduction possible: q = 0 is optimal
+            continue
+        q = lam / alpha
+        assert f(q) <= f(q_num) + 1e-10
+        assert q == pytest.approx(q_num, rel=1e-4)
+
+
+def test_trace_weight_minimises_the_trace():
+    """Closed-form (Cardano) trace weight vs minimize_scalar of tr(sigma' M'^-1) =
+    sigma'(q) (T - q H / (1 + q G)) over ln q."""
+    rng = np.random.default_rng(2)
+    n_updates = 0
+    for n, sigma, G, eps, T, H in _weight_cases(rng, 300):
+        def f(q, sigma=sigma, G=G, eps=eps, T=T, H=H):
+            return _sigma_q(q, sigma, G, eps) * (T - q * H / (1.0 + q * G))
+        lam, alpha = K.weight_trace(n, sigma, G, eps, T, H)
+        num = minimize_scalar(lambda u, f=f: f(np.exp(u)), bounds=(-40, 40), method="bounded",
+                              options={"xatol": 1e-12})
+        q_num = np.exp(num.x)
+        if lam == 0.0:
+            assert f(q_num) >= f(0.0) * (1 - 1e-9)
+            continue
+        n_updates += 1
+        q = lam / alpha
+        assert f(q) <= f(q_num) * (1 + 1e-10)
+        assert q == pytest.approx(q_num, rel=1e-4)
+    assert n_updates > 100
+
+
+def test_dasgupta_huang_weight_minimises_sigma():
+    """Closed-form Dasgupta-Huang weight vs minimize_scalar of sigma'(lambda) (convex form,
+    REFERENCES §1) on [0, alpha_max], including G = 1 exactly and G < 1, G > 1."""
+    rng = np.random.default_rng(3)
+    alpha_max = 0.9
+    n_updates = 0
+    for k in range(400):
+        sigma = rng.uniform(0.05, 3.0)
+        G = 1.0 if k % 10 == 0 else np.exp(rng.uniform(-3, 3))
+        eps = rng.uniform(-3.0, 3.0)
+
+        def s(lam, sigma=sigma, G=G, eps=eps):
+            return (1 - lam) * sigma + lam - lam * (1 - lam) * eps**2 / (1 - lam + lam * G)
+        lam, alpha = K.weight_dh(sigma, G, eps, alpha_max)
+        num = minimize_scalar(s, bounds=(0.0, alpha_max), method="bounded", options={"xatol": 1e-12})
+        best = min(num.fun, s(0.0), s(alpha_max))
+        assert s(lam) <= best + 1e-10
+        if lam > 0:
+            n_updates += 1
+            if 1e-6 < num.x < alpha_max - 1e-6:
+                assert lam == pytest.approx(num.x, abs=1e-5)
+    assert n_updates > 100
+
+
+def test_cardano_root_matches_numpy_roots():
+    """The cubic solver vs numpy.roots (companion-matrix eigenvalues)."""
+    rng = np.random.default_rng(4)
+    for _ in range(500):
+        b3 = np.exp(rng.uniform(-5, 5))
+        b2, b1 = rng.normal(size=2) * np.exp(rng.uniform(-3, 3, 2))
+        b0 = -np.exp(rng.uniform(-5, 5))
+        r = np.roots([b3, b2, b1, b0])
+        ref = r.real[(np.abs(r.imag) <= 1e-9 * np.abs(r)) & (r.real > 0)].min()
+        assert K.smallest_positive_cubic_root(b3, b2, b1, b0) == pytest.approx(ref, rel=1e-7)
+
+
+# ---------------------------------------------------------------------------- against the polytope
+@pytest.mark.parametrize("p", [2, 3, 4])
+@pytest.mark.parametrize("form", FORMS)
+def test_final_ellipsoid_contains_every_vertex_of_the_exact_polytope(p, form):
+    """Exact reference: the vertices of the feasible polytope (boundid.sets.Polytope, Qhull
+    halfspace intersection) all lie in the final ellipsoid, for every criterion."""
+    rng = np.random.default_rng(10 + p)
+    for trial in range(3):
+        theta, W, y, e = _problem(rng, p, 15 * p)
+        V = Polytope.from_strips(W, y, e).vertices()
+        shape0 = 1e4
+        assert np.all(np.sum(V**2, axis=1) < shape0)  # P inside E0, so E_N must contain P
+        for crit in CRITERIA:
+            est = OBE(p, shape0=shape0, form=form, criterion=crit).fit(W, y, e)
+            assert np.all(est.ellipsoid.contains(V, rtol=1e-8)), (trial, crit)
+
+
+def test_p14_final_ellipsoid_contains_the_lp_bound_vertices():
+    """Exact reference at p = 14 (the H4 size): the 2p vertices where the LP bounds of P are
+    attained lie in the final ellipsoid, for both forms; its intervals contain the LP bounds."""
+    rng = np.random.default_rng(14)
+    theta, W, y, e = _problem(rng, 14, 300)
+    b = Polytope.from_strips(W, y, e).bounds()
+    for form in FORMS:
+        est = OBE(14, shape0=1e4, form=form).fit(W, y, e)
+        assert np.all(est.ellipsoid.contains(b.vertices(), rtol=1e-8))
+        lo, hi = est.intervals
+        assert np.all(lo <= b.lo + 1e-9) and np.all(hi >= b.hi - 1e-9)
+
+
+# ---------------------------------------------------------------------------- behaviour
+def test_selective_skip_of_a_strip_containing_the_ellipsoid():
+    """A strip wider than the ellipsoid's extent carries no information (closed-form extent
+    w^T c +- sqrt(w^T S w)): skipped, state unchanged, counted in n_skipped."""
+    for form in FORMS:
+        obe = OBE(3, center0=[1.0, 2.0, 3.0], shape0=[1.0, 4.0, 9.0], form=form)
+        w = np.array([1.0, 1.0, 1.0])
+        half = np.sqrt(w @ np.diag([1.0, 4.0, 9.0]) @ w)
+        est = obe.update(w, 6.0 + 0.1, half + 0.2)
+        assert est.info["n_updates"] == 0 and est.info["n_skipped"] == 1
+        np.testing.assert_allclose(est.ellipsoid.shape, np.diag([1.0, 4.0, 9.0]), rtol=1e-12)
+        est = obe.update(w, 6.0 + 0.1, 0.5 * half)
+        assert est.info["n_updates"] == 1 and est.info["n_samples"] == 2
+        assert est.ellipsoid.log_volume() < np.log(4 / 3 * np.pi * 6.0)
+
+
+def test_outliers_are_recorded_and_skipped_or_raise():
+    """A strip beyond the ellipsoid's extent (closed form) is an outlier: its index and innovation
+    are recorded and the ellipsoid stays unchanged and positive definite; or it raises."""
+    rng = np.random.default_rng(5)
+    theta, W, y, e = _problem(rng, 3, 60)
+    y = y.copy()
+    y[[20, 45]] += 1e3
+    for form in FORMS:
+        est = OBE(3, shape0=100.0, form=form).fit(W, y, e)
+        np.testing.assert_array_equal(est.outliers, [20, 45])
+        assert np.all(np.abs(est.outlier_residuals) > 900)
+        assert est.contains(theta)
+        np.linalg.cholesky(est.ellipsoid.shape)
+        obe = OBE(3, shape0=100.0, form=form, on_outlier="raise")
+        with pytest.raises(InfeasibleDataError, match="observation 20"):
+            obe.fit(W, y, e)
+        assert obe.n_samples == 21
+        assert obe.estimate().contains(theta)
+
+
+def test_fit_continues_and_update_equals_fit():
+    """Second route: fitting in two batches, or row by row with update(), gives the batch result
+    (same arithmetic, so equal to rounding); history indices are global."""
+    rng = np.random.default_rng(6)
+    theta, W, y, e = _problem(rng, 4, 50)
+    for form in FORMS:
+        whole = OBE(4, shape0=100.0, form=form, record_every=7).fit(W, y, e)
+        parts = OBE(4, shape0=100.0, form=form, record_every=7)
+        parts.fit(W[:23], y[:23], e[:23])
+        two = parts.fit(W[23:], y[23:], e[23:])
+        one = OBE(4, shape0=100.0, form=form, record_every=7)
+        for k in range(50):
+            last = one.update(W[k], y[k], e[k])
+        for other in (two, last):
+            np.testing.assert_allclose(other.center, whole.center, rtol=1e-12, atol=1e-14)
+            np.testing.assert_allclose(other.ellipsoid.shape, whole.ellipsoid.shape, rtol=1e-12, atol=1e-16)
+            assert other.info["n_updates"] == whole.info["n_updates"]
+        assert list(whole.history.index) == [6, 13, 20, 27, 34, 41, 48, 49]
+        assert set(whole.history.index) <= set(two.history.index)
+
+
+def test_from_prior_circumscribes_the_box():
+    """E0 of from_prior passes through the box corners (closed form: corner Mahalanobis = 1)."""
+    obe = OBE.from_prior([1.0, -2.0, 0.5], [0.1, 2.0, 5.0], names=["a", "b", "c"])
+    E = obe.estimate().ellipsoid
+    corners = np.array([[1.0 + s1 * 0.1, -2.0 + s2 * 2.0, 0.5 + s3 * 5.0]
+                        for s1 in (-1, 1) for s2 in (-1, 1) for s3 in (-1, 1)])
+    np.testing.assert_allclose(E.mahalanobis2(corners), 1.0, rtol=1e-12)
+    assert obe.estimate().names == ("a", "b", "c")
+    assert obe.estimate().kind == "guaranteed"
+
+
+def test_estimate_reports_counts_and_sigma():
+    """info holds the documented keys; counts add up; the ellipsoid is c, sigma M^-1."""
+    rng = np.random.default_rng(8)
+    theta, W, y, e = _problem(rng, 3, 100)
+    obe = OBE(3, shape0=100.0, criterion="trace")
+    est = obe.fit(W, y, e)
+    info = est.info
+    for key in ("n_samples", "n_updates", "n_skipped", "time_s", "criterion", "form", "sigma"):
+        assert key in info
+    assert info["n_samples"] == 100 == info["n_updates"] + info["n_skipped"] + est.outliers.size
+    np.testing.assert_allclose(est.ellipsoid.shape, info["sigma"] * np.linalg.inv(obe.information()), rtol=1e-9)
+    assert est.method == "OBE-factorized (trace)"
+    assert "OBE" in est.summary()
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda o: o.fit(np.ones((5, 2)), np.ones(5), 1.0),  # wrong column count
+        lambda o: o.fit(np.ones((5, 3)), np.ones(4), 1.0),  # y length
+        lambda o: o.fit(np.full((5, 3), np.nan), np.ones(5), 1.0),  # NaN
+        lambda o: o.fit(np.ones((5, 3)), np.ones(5), 0.0),  # zero bound
+        lambda o: o.fit(np.ones((5, 3)), np.ones(5), -np.ones(5)),  # negative bounds
+        lambda o: o.fit(np.ones((5, 3)), np.ones(5), np.ones(4)),  # bound length
+        lambda o: o.update(np.ones(2), 1.0, 1.0),  # wrong row length
+    ],
+)
+def test_bad_input_raises_input_error(call):
+    """Bad input -> InputError (not a numba crash or a silent NaN)."""
+    with pytest.raises(InputError):
+        call(OBE(3))
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"criterion": "det"}, {"form": "qr"}, {"on_outlier": "ignore"}, {"record_every": 0},
+     {"alpha_max": 1.0}, {"shape0": -1.0}, {"center0": [1.0, 2.0]}, {"names": ["a"]}],
+)
+def test_bad_options_raise_input_error(kwargs):
+    """Unknown options and bad priors -> InputError naming the argument."""
+    with pytest.raises(InputError):
+        OBE(3, **kwargs)
