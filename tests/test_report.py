@@ -395,3 +395,5 @@ def test_browser_check_passes_good_page_and_catches_broken_ones(study_page, tmp_
     script = tmp_path / "script.html"
     script.write_text(text.replace("<head>", "<head><script>undefinedFunction();</script>", 1))
     assert any("script error" in p for p in browser.check_page(script, exe))
+    assert browser.main([str(path.parent)]) == 0  # the command over a folder: one good page
+    assert browser.main([str(tmp_path)]) == 2  # no index.html there: nothing to check is an error

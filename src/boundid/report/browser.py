@@ -63,6 +63,7 @@ FLAGS = (
     "--disable-component-update",
     "--disable-sync",
     "--disable-extensions",
+    "--disable-dev-shm-usage",
     "--enable-logging=stderr",
     "--v=0",
     "--virtual-time-budget=10000",

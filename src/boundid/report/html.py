@@ -201,14 +201,14 @@ class Page:
             text = text.reset_index()
         body = text.to_html(index=False, border=0, classes="data" + (" keyed" if shows_index(t.df) else ""),
                             escape=True)
-        return (f'<figure class="tab" id="{t.name}"><figcaption><b>Table {t.number}.</b> '
+        return (f'<figure class="tab" id="tab-{t.name}"><figcaption><b>Table {t.number}.</b> '
                 f'{html.escape(t.caption)}<span class="files"><a href="tables/{t.name}.csv">CSV</a> · '
                 f'<a href="tables/{t.name}.tex">LaTeX</a></span></figcaption>'
                 f'<div class="scroll">{body}</div></figure>')
 
     def _figure_html(self, f: _Figure) -> str:
         data = base64.b64encode(f.png).decode("ascii")
-        return (f'<figure class="fig" id="{f.name}"><img src="data:image/png;base64,{data}" '
+        return (f'<figure class="fig" id="fig-{f.name}"><img src="data:image/png;base64,{data}" '
                 f'alt="{html.escape(f.caption)}"><figcaption><b>Figure {f.number}.</b> {html.escape(f.caption)}'
                 f'<span class="files"><a href="figures/{f.name}.png">PNG</a> · '
                 f'<a href="figures/{f.name}.svg">SVG</a></span></figcaption></figure>')
