@@ -2,5 +2,14 @@
 
 from boundid.sets.ellipsoid import Ellipsoid, log_unit_ball_volume
 from boundid.sets.polytope import Bounds, Consistency, Polytope
+from boundid.sets.sdp import (
+    SDPResult,
+    enclosing_ellipsoid,
+    inner_ellipsoid,
+    john_outer,
+    outer_ellipsoid,
+    step_ellipsoid,
+)
 
-__all__ = ["Ellipsoid", "log_unit_ball_volume", "Bounds", "Consistency", "Polytope"]
+__all__ = ["Ellipsoid", "log_unit_ball_volume", "Bounds", "Consistency", "Polytope", "SDPResult",
+           "enclosing_ellipsoid", "inner_ellipsoid", "john_outer", "outer_ellipsoid", "step_ellipsoid"]

@@ -1,0 +1,389 @@
+"""Exact and certified ellipsoids of polytopes and point sets by SDP (cvxpy + Clarabel).
+
+REFERENCES §3: maximum-volume inscribed ellipsoid, S-procedure outer ellipsoid on tightened
+strips, John's factor-n enlargement, minimum-volume ellipsoid around points, and the exact
+one-step ellipsoid of E ∩ strip. Every SDP is solved in scaled coordinates (centred at the LP
+bounding-box centre and divided by its half-widths, or the unit-ball coordinates of E): unscaled,
+Clarabel failed on ~1000 strips.
+
+Every function returns an :class:`SDPResult` (the ellipsoid plus solver status, wall time,
+the strips of P used). The result is verified before it is returned: inner ellipsoids are shrunk
+onto P exactly if the solver left them a rounding error outside; outer ones are enlarged by the
+certified residual of their S-procedure certificate and checked against known vertices of P.
+A failed or inaccurate solve raises :class:`boundid.errors.SolverError`, unless the caller
+passes ``allow_fallback=True``: SCS is then tried and its (re-verified) answer returned.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import cvxpy as cp
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+from boundid._validation import as_float_array, as_matrix, as_vector
+from boundid.errors import InfeasibleDataError, InputError, SolverError
+from boundid.sets.ellipsoid import Ellipsoid
+from boundid.sets.polytope import MAX_VERTEX_DIM, Polytope
+
+#: an outer ellipsoid may be enlarged by at most this (relative, in squared radius) to repair
+#: solver inaccuracy; a larger repair means the solve was inaccurate and raises SolverError
+_MAX_REPAIR = 1e-4
+
+
+@dataclass(frozen=True)
+class SDPResult:
+    """An SDP ellipsoid with how it was obtained.
+
+    ellipsoid : the Ellipsoid (parameter units).
+    status : solver status ("optimal", or "no_cut" when step_ellipsoid had nothing to cut).
+    time_s : wall time of the whole call (LPs, SDP solves, verification), s.
+    strips : indices of the strips of P the answer used (empty when not applicable).
+    solver : "CLARABEL" or "SCS" (fallback), "" when no SDP was solved.
+    info : extra facts (constraint-generation rounds, certificate residual, repair factor ...).
+    """
+
+    ellipsoid: Ellipsoid
+    status: str
+    time_s: float
+    strips: np.ndarray
+    solver: str
+    info: dict = field(default_factory=dict)
+
+
+def _solve(problem: cp.Problem, allow_fallback: bool, what: str) -> tuple[str, str]:
+    """Solve with Clarabel; returns (solver, status). SCS only with ``allow_fallback``."""
+    try:
+        problem.solve(solver=cp.CLARABEL)
+        status = problem.status
+    except cp.error.SolverError as exc:
+        status = f"solver error ({exc})"
+    if status == cp.OPTIMAL:
+        return "CLARABEL", status
+    if allow_fallback:
+        try:
+            problem.solve(solver=cp.SCS, eps=1e-9, max_iters=200_000)
+        except cp.error.SolverError as exc:
+            raise SolverError(f"{what}: Clarabel returned '{status}' and the SCS fallback failed ({exc}).") from None
+        if problem.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+            return "SCS", problem.status
+        status = f"{status}; SCS fallback: {problem.status}"
+    raise SolverError(
+        f"{what}: the SDP solver returned '{status}'. Check that the set is bounded with a non-empty "
+        "interior; pass allow_fallback=True to try SCS (its answer is re-verified).")
+
+
+def _box_frame(P: Polytope):
+    """LP bounding box of P: centre, half-widths (all > 0) and the LP bounds."""
+    b = P.bounds()
+    if np.any(b.half_width <= 0):
+        raise InputError(f"P is flat along parameters {np.flatnonzero(b.half_width <= 0)} (zero width): "
+                         "its ellipsoids are degenerate. Drop or fix those parameters first.")
+    return b.center, b.half_width, b
+
+
+def _halfspaces_z(P: Polytope, cb, hb):
+    """Every side of every constraint of P as g^T z <= h in box coordinates theta = cb + hb z,
+    unit-norm g; also the strip index owning each side (-1 for the prior)."""
+    A, lo, up, strip = P.as_ranged_rows()
+    As = A * hb
+    off = A @ cb
+    G, h, owner = [], [], []
+    for sgn, bound in ((1.0, up), (-1.0, lo)):
+        fin = np.isfinite(bound)
+        G.append(sgn * As[fin])
+        h.append(sgn * (bound[fin] - off[fin]))
+        owner.append(strip[fin])
+    G, h, owner = np.vstack(G), np.concatenate(h), np.concatenate(owner)
+    nrm = np.linalg.norm(G, axis=1)
+    nz = nrm > 0
+    return G[nz] / nrm[nz, None], h[nz] / nrm[nz], owner[nz]
+
+
+def _known_vertices(P: Polytope, b) -> np.ndarray:
+    """Points of P to verify outer ellipsoids on: all vertices for p <= 6, else the LP-bound ones."""
+    V = b.vertices()
+    if P.dim <= MAX_VERTEX_DIM:
+        V = np.vstack([V, P.vertices()])
+    return V
+
+
+def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) -> SDPResult:
+    """Maximum-volume ellipsoid inscribed in P (exact, convex; REFERENCES §3).
+
+    E = {x0 + B u : |u| <= 1}: maximise log det B s.t. |B g_i| + g_i^T x0 <= h_i for every side
+    of every strip, box side and halfspace; solved by constraint generation over the sides (a
+    working set seeded with the sides active at the LP-bound vertices plus the implied bounding
+    box; the most violated sides added after each solve) so N = 1e5 rows work. The answer is
+    shrunk about x0 so that it lies inside P exactly (the solver may leave it ~1e-9 outside).
+    ``strips`` of the result: the strips whose sides were in the final working set.
+    """
+    t0 = time.perf_counter()
+    cb, hb, b = _box_frame(P)
+    n = P.dim
+    G, h, owner = _halfspaces_z(P, cb, hb)
+    # seed: sides active at the 2p LP optima (they certify the bounding box) + the box itself
+    Vz = (b.vertices() - cb) / hb
+    act = np.flatnonzero(np.any(Vz @ G.T >= h - 1e-7 * (1 + np.abs(h)), axis=0))
+    Gb = np.vstack([np.eye(n), -np.eye(n)])
+    ws = np.zeros(len(h), dtype=bool)
+    ws[act] = True
+    rounds, solver, status = 0, "", ""
+    while True:
+        rounds += 1
+        Gw, hw = np.vstack([G[ws], Gb]), np.concatenate([h[ws], np.ones(2 * n)])
+        B = cp.Variable((n, n), PSD=True)
+        x0 = cp.Variable(n)
+        prob = cp.Problem(cp.Maximize(cp.log_det(B)), [cp.norm(Gw @ B, 2, axis=1) + Gw @ x0 <= hw])
+        solver, status = _solve(prob, allow_fallback, "inner_ellipsoid")
+        Bv, xv = 0.5 * (B.value + B.value.T), x0.value
+        viol = (np.linalg.norm(G @ Bv, axis=1) + G @ xv - h) / (1 + np.abs(h))
+        new = np.flatnonzero((viol > 1e-7) & ~ws)
+        if new.size == 0:
+            break
+        if new.size > batch:
+            new = new[np.argsort(viol[new])[-batch:]]
+        ws[new] = True
+    # exact containment: shrink B about x0 until every side holds (x0 must be interior)
+    slack = h - G @ xv
+    if np.any(slack <= 0):
+        raise SolverError(f"inner_ellipsoid: the computed centre lies outside P ({solver}, {status}).")
+    reach = np.linalg.norm(G @ Bv, axis=1)
+    s = min(1.0, float(np.min(slack[reach > 0] / reach[reach > 0])))
+    if s < 1 - 1e-4:
+        raise SolverError(f"inner_ellipsoid: inaccurate solve ({solver}, {status}); the ellipsoid left P "
+                          f"by a factor {1 / s:.3g}.")
+    Bv = s * Bv
+    ell = Ellipsoid(cb + hb * xv, (hb[:, None] * (Bv @ Bv)) * hb[None, :])
+    strips = np.unique(owner[ws][owner[ws] >= 0])
+    return SDPResult(ell, status, time.perf_counter() - t0, strips, solver,
+                     {"rounds": rounds, "working_sides": int(ws.sum()), "shrink": s})
+
+
+def _s_procedure(Gs, mid, half, extra, allow_fallback: bool, what: str):
+    """Minimum-volume ellipsoid containing ∩_i {|g_i^T z - mid_i| <= half_i} ∩ (extra quadrics)
+    by the S-procedure LMI (Boyd et al. 1994 §3.7.2; REFERENCES §3).
+
+    Quadrics q(z) = z^T A z + 2 b^T z + c <= 0: a strip is (g g^T, -mid g, mid^2 - half^2);
+    ``extra`` is a list of (A, b, c). Returns (A0, b0, tau, solver, status) in z coordinates.
+    """
+    n = Gs.shape[1] if Gs.size else extra[0][0].shape[0]
+    m = Gs.shape[0]
+    A0 = cp.Variable((n, n), symmetric=True)
+    b0 = cp.Variable((n, 1))
+    tau = cp.Variable(m, nonneg=True) if m else None
+    sig = cp.Variable(len(extra), nonneg=True) if extra else None
+    SA, Sb, Sc = 0, 0, 0
+    if m:
+        SA = Gs.T @ cp.diag(tau) @ Gs
+        Sb = cp.reshape(-(Gs.T @ cp.multiply(mid, tau)), (n, 1), order="F")
+        Sc = cp.sum(cp.multiply(mid**2 - half**2, tau))
+    for i, (Ai, bi, ci) in enumerate(extra):
+        SA = SA + sig[i] * Ai
+        Sb = Sb + sig[i] * bi[:, None]
+        Sc = Sc + sig[i] * ci
+    Z = np.zeros((n, n))
+    M = cp.bmat([[A0 - SA, b0 - Sb, Z],
+                 [(b0 - Sb).T, cp.reshape(-1 - Sc, (1, 1), order="F"), b0.T],
+                 [Z, b0, -A0]])
+    prob = cp.Problem(cp.Maximize(cp.log_det(A0)), [0.5 * (M + M.T) << 0])
+    solver, status = _solve(prob, allow_fallback, what)
+    tau_v = np.clip(tau.value, 0, None) if m else np.zeros(0)
+    sig_v = np.clip(sig.value, 0, None) if extra else np.zeros(0)
+    return 0.5 * (A0.value + A0.value.T), b0.value.ravel(), tau_v, sig_v, solver, status
+
+
+def _certified(A0, b0, Gs, mid, half, tau, extra, sig, r2_bound: float, what: str):
+    """Centre and shape of the S-procedure ellipsoid, enlarged so that its certificate holds
+    exactly for the numerical multipliers.
+
+    With F = [[A0 - sum tau A_i, b0 - sum tau b_i], [., b0^T A0^-1 b0 - 1 - sum tau c_i]] the
+    certificate gives (z - c)^T A0 (z - c) <= 1 + lambda_max(F) (|z|^2 + 1) on the set; with
+    |z|^2 <= ``r2_bound`` there the ellipsoid scaled by sqrt(1 + mu (r2_bound + 1)) is certified.
+    """
+    try:
+        L = np.linalg.cholesky(A0)
+    except np.linalg.LinAlgError:
+        raise SolverError(f"{what}: the SDP returned a shape matrix that is not positive definite.") from None
+    center = -np.linalg.solve(A0, b0)
+    SA = (Gs.T * tau) @ Gs if Gs.size else np.zeros_like(A0)
+    Sb = -(Gs.T @ (mid * tau)) if Gs.size else np.zeros_like(b0)
+    Sc = float(np.sum((mid**2 - half**2) * tau)) if Gs.size else 0.0
+    for s, (Ai, bi, ci) in zip(sig, extra, strict=True):
+        SA, Sb, Sc = SA + s * Ai, Sb + s * bi, Sc + s * ci
+    F = np.block([[A0 - SA, (b0 - Sb)[:, None]],
+                  [(b0 - Sb)[None, :], np.array([[b0 @ np.linalg.solve(A0, b0) - 1 - Sc]])]])
+    mu = max(0.0, float(np.linalg.eigvalsh(0.5 * (F + F.T))[-1]))
+    k2 = 1.0 + mu * (r2_bound + 1.0)
+    if k2 - 1 > _MAX_REPAIR:
+        raise SolverError(f"{what}: inaccurate S-procedure certificate (residual {mu:.3g}); "
+                          "try allow_fallback=True or fewer strips.")
+    Linv = np.linalg.inv(L)
+    return center, k2 * (Linv.T @ Linv), mu
+
+
+def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False) -> SDPResult:
+    """An ellipsoid guaranteed to contain P, by the S-procedure on tightened strips (REFERENCES §3).
+
+    Uses ``strips`` (default: ``P.nonredundant()``), each tightened to the exact extent of P
+    along its normal, plus the LP bounding box of P and the halfspace priors tightened likewise
+    (all of them contain P, so any subset gives a valid outer ellipsoid). The S-procedure
+    certificate is checked with the solver's multipliers and the ellipsoid enlarged by its
+    residual (at most 1e-4 in squared radius, else SolverError); then every known vertex of P
+    (all vertices for p <= 6, the 2p LP-bound vertices always) is checked to lie inside.
+    """
+    t0 = time.perf_counter()
+    cb, hb, b = _box_frame(P)
+    n = P.dim
+    strips = P.nonredundant() if strips is None else np.unique(np.asarray(strips, dtype=int))
+    if strips.size and (strips.min() < 0 or strips.max() >= P.n_strips):
+        raise InputError(f"strips must be indices in [0, {P.n_strips}).")
+    rows = []
+    if strips.size:
+        T = P.tightened(strips)
+        rows.append((T.W, T.y, T.e_max))
+    if P.halfspaces is not None:
+        H = P.halfspaces[0]
+        ext = np.array([P.extent(a) for a in H])
+        rows.append((H, ext.mean(axis=1), np.maximum(0.5 * (ext[:, 1] - ext[:, 0]), 1e-12 * np.abs(ext).max())))
+    Gs, mid, half = [np.eye(n)], [np.zeros(n)], [np.ones(n)]      # the LP box: |z_j| <= 1
+    for Wr, yr, er in rows:
+        g = Wr * hb
+        nrm = np.linalg.norm(g, axis=1)
+        Gs.append(g / nrm[:, None])
+        mid.append((yr - Wr @ cb) / nrm)
+        half.append(er / nrm)
+    Gs, mid, half = np.vstack(Gs), np.concatenate(mid), np.concatenate(half)
+    A0, b0, tau, sig, solver, status = _s_procedure(Gs, mid, half, [], allow_fallback, "outer_ellipsoid")
+    cz, Sz, mu = _certified(A0, b0, Gs, mid, half, tau, [], sig, float(n), "outer_ellipsoid")
+    ell = Ellipsoid(cb + hb * cz, (hb[:, None] * Sz) * hb[None, :])
+    V = _known_vertices(P, b)
+    if not np.all(ell.contains(V)):
+        raise SolverError(f"outer_ellipsoid: verification failed, {int(np.sum(~ell.contains(V)))} vertices of P "
+                          f"lie outside the certified ellipsoid ({solver}, {status}).")
+    return SDPResult(ell, status, time.perf_counter() - t0, strips, solver,
+                     {"certificate_residual": mu, "n_constraints": len(mid), "vertices_checked": len(V)})
+
+
+def john_outer(P: Polytope, allow_fallback: bool = False) -> SDPResult:
+    """The maximum-volume inscribed ellipsoid scaled by p about its centre (John 1948: it
+    contains P; factor p, not sqrt(p), since P is not centrally symmetric; REFERENCES §3).
+
+    The guarantee holds for the exact inscribed ellipsoid; the numerical one is checked on the
+    known vertices of P (all for p <= 6, else the LP-bound ones) and enlarged to cover them if
+    a rounding error left one outside (at most 1e-4 in squared radius, else SolverError).
+    """
+    t0 = time.perf_counter()
+    inner = inner_ellipsoid(P, allow_fallback=allow_fallback)
+    ell = inner.ellipsoid.scaled(P.dim)
+    V = _known_vertices(P, P.bounds())
+    d2 = float(np.max(ell.mahalanobis2(V)))
+    if d2 > 1 + _MAX_REPAIR:
+        raise SolverError(f"john_outer: a vertex of P lies outside p x the inner ellipsoid (squared "
+                          f"distance {d2:.6g}); the inner ellipsoid solve was inaccurate.")
+    if d2 > 1:
+        ell = Ellipsoid(ell.center, d2 * ell.shape)
+    return SDPResult(ell, inner.status, time.perf_counter() - t0, inner.strips, inner.solver,
+                     {**inner.info, "vertex_repair": max(d2, 1.0), "vertices_checked": len(V)})
+
+
+def enclosing_ellipsoid(points, allow_fallback: bool = False) -> SDPResult:
+    """Minimum-volume ellipsoid containing ``points`` (m, n) (exact; REFERENCES §3):
+    maximise log det A s.t. |A p_i + b| <= 1; E = {x : |A x + b| <= 1}.
+
+    The points must span R^n affinely (m >= n + 1). Solved in coordinates centred and scaled by
+    the points' bounding box, by constraint generation over the points (for n <= 6 over the
+    convex-hull vertices only). The answer
+    is enlarged to contain every point exactly if the solver left one a rounding error outside.
+    """
+    t0 = time.perf_counter()
+    X = as_matrix(points, "points")
+    m, n = X.shape
+    lo, hi = X.min(axis=0), X.max(axis=0)
+    c, hw = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    if np.any(hw <= 0) or m < n + 1 or np.linalg.matrix_rank(X - X.mean(axis=0)) < n:
+        raise InputError(f"points must span R^{n} affinely (at least {n + 1} points, not all on a hyperplane); "
+                         "a flat point set has no finite minimum-volume ellipsoid.")
+    Z = (X - c) / hw
+    Zs = Z
+    if 2 <= n <= MAX_VERTEX_DIM and m > 4 * n:
+        try:
+            Zs = Z[ConvexHull(Z).vertices]
+        except QhullError:
+            Zs = Z
+    # constraint generation over the points: start from the extreme points along each axis and
+    # a strided sample, add the points left outside (dense, near-duplicate points stall Clarabel)
+    ws = np.zeros(len(Zs), dtype=bool)
+    ws[np.argmin(Zs, axis=0)] = ws[np.argmax(Zs, axis=0)] = True
+    ws[np.linspace(0, len(Zs) - 1, min(len(Zs), 20 * n)).astype(int)] = True
+    rounds = 0
+    while True:
+        rounds += 1
+        A = cp.Variable((n, n), PSD=True)
+        bv = cp.Variable(n)
+        prob = cp.Problem(cp.Maximize(cp.log_det(A)), [cp.norm(Zs[ws] @ A + bv[None, :], 2, axis=1) <= 1])
+        solver, status = _solve(prob, allow_fallback, "enclosing_ellipsoid")
+        out = np.sum((Zs @ A.value + bv.value) ** 2, axis=1) - 1
+        new = np.flatnonzero((out > 1e-7) & ~ws)
+        if new.size == 0:
+            break
+        ws[new[np.argsort(out[new])[-64:]]] = True
+    Av = 0.5 * (A.value + A.value.T)
+    try:
+        Ainv = np.linalg.inv(Av)
+    except np.linalg.LinAlgError:
+        raise SolverError("enclosing_ellipsoid: singular shape from the solver.") from None
+    cz = -Ainv @ bv.value
+    d2 = float(np.max(np.sum((Z @ Av + bv.value) ** 2, axis=1)))
+    if d2 > 1 + _MAX_REPAIR:
+        raise SolverError(f"enclosing_ellipsoid: inaccurate solve ({solver}, {status}), a point at squared "
+                          f"distance {d2:.6g}.")
+    Sz = max(d2, 1.0) * (Ainv @ Ainv)
+    ell = Ellipsoid(c + hw * cz, (hw[:, None] * Sz) * hw[None, :])
+    return SDPResult(ell, status, time.perf_counter() - t0, np.zeros(0, dtype=int), solver,
+                     {"points_in_sdp": int(ws.sum()), "rounds": rounds, "repair": max(d2, 1.0)})
+
+
+def step_ellipsoid(E: Ellipsoid, w, y: float, e_max: float, allow_fallback: bool = False) -> SDPResult:
+    """Minimum-volume ellipsoid containing E ∩ {x : |y - w^T x| <= e_max} (exact; REFERENCES §1, §3).
+
+    Solved in the unit-ball coordinates of E (x = c + L z, shape = L L^T); the strip is first
+    clipped to E's extent along w, which makes the one-ellipsoid-one-strip S-procedure exact.
+    Returns E itself (status "no_cut") when the strip does not cut E; raises
+    InfeasibleDataError when E ∩ strip is empty (an outlier for the recursive update).
+    """
+    t0 = time.perf_counter()
+    if not isinstance(E, Ellipsoid):
+        raise InputError(f"E must be an Ellipsoid, got {type(E).__name__}.")
+    n = E.dim
+    w = as_vector(w, "w", n)
+    y = float(as_vector(y, "y", 1)[0])
+    e = float(as_float_array(e_max, "e_max"))
+    if not (np.isfinite(e) and e > 0):
+        raise InputError(f"e_max must be finite and > 0, got {e}.")
+    L = np.linalg.cholesky(E.shape)
+    g = L.T @ w
+    s = float(np.linalg.norm(g))
+    eps = y - float(w @ E.center)
+    if s == 0:
+        if abs(eps) <= e:
+            return SDPResult(E, "no_cut", time.perf_counter() - t0, np.zeros(0, dtype=int), "", {})
+        raise InfeasibleDataError(f"w = 0 and |y| = {abs(y):.6g} > e_max = {e:.6g}: the strip is empty.")
+    u, m_, h_ = g / s, eps / s, e / s
+    lo, hi = max(m_ - h_, -1.0), min(m_ + h_, 1.0)
+    if lo > hi:
+        raise InfeasibleDataError(
+            f"E ∩ strip is empty: |y - w^T c| = {abs(eps):.6g} > e_max + sqrt(w^T S w) = {e + s:.6g}. "
+            "This observation contradicts the current ellipsoid (an outlier): skip it or enlarge e_max.")
+    if lo <= -1.0 and hi >= 1.0:
+        return SDPResult(E, "no_cut", time.perf_counter() - t0, np.zeros(0, dtype=int), "", {})
+    mid, half = np.array([0.5 * (lo + hi)]), np.array([0.5 * (hi - lo)])
+    ball = (np.eye(n), np.zeros(n), -1.0)
+    A0, b0, tau, sig, solver, status = _s_procedure(u[None, :], mid, half, [ball], allow_fallback,
+                                                    "step_ellipsoid")
+    cz, Sz, mu = _certified(A0, b0, u[None, :], mid, half, tau, [ball], sig, 1.0, "step_ellipsoid")
+    ell = Ellipsoid(E.center + L @ cz, L @ Sz @ L.T)
+    return SDPResult(ell, status, time.perf_counter() - t0, np.zeros(0, dtype=int), solver,
+                     {"certificate_residual": mu, "clipped": (lo > m_ - h_) or (hi < m_ + h_)})

@@ -1,0 +1,174 @@
+"""Tests of boundid.sets.sdp: inscribed, S-procedure, John, point-enclosing and one-step ellipsoids."""
+
+from __future__ import annotations
+
+import cvxpy as cp
+import numpy as np
+import pytest
+
+from boundid.errors import InfeasibleDataError, InputError, SolverError
+from boundid.sets import Ellipsoid, Polytope, sdp
+
+
+def random_polytope(seed, p, N):
+    rng = np.random.default_rng(seed)
+    W = rng.normal(size=(N, p))
+    e = 0.5 + rng.random(N)
+    y = W @ rng.normal(size=p) + e * rng.uniform(-1, 1, N)
+    return Polytope.from_strips(W, y, e)
+
+
+def boundary(E: Ellipsoid, n=4000, seed=0):
+    """Random points on the boundary of E."""
+    U = np.random.default_rng(seed).normal(size=(n, E.dim))
+    U /= np.linalg.norm(U, axis=1)[:, None]
+    return E.center + U @ np.linalg.cholesky(E.shape).T
+
+
+def test_inner_ellipsoid_of_box_is_half_sides():
+    """Closed form: the maximum-volume ellipsoid in a box is axis-aligned with the half-sides as
+    semi-axes, centred at the box centre."""
+    P = Polytope.from_strips(np.eye(3), np.array([1.0, -2.0, 0.5]), np.array([1.0, 0.2, 3.0]))
+    r = sdp.inner_ellipsoid(P)
+    assert r.status == "optimal" and r.solver == "CLARABEL"
+    assert np.allclose(r.ellipsoid.center, [1.0, -2.0, 0.5], atol=1e-6)
+    assert np.allclose(r.ellipsoid.shape, np.diag([1.0, 0.04, 9.0]), rtol=1e-5, atol=1e-7)
+
+
+def test_enclosing_ellipsoid_of_square_is_circumcircle():
+    """Closed form: the minimum-volume ellipse through a square's vertices is its circumcircle."""
+    V = np.array([[1.0, 1.0], [1.0, -1.0], [-1.0, 1.0], [-1.0, -1.0]]) * 2.0 + [3.0, -1.0]
+    r = sdp.enclosing_ellipsoid(V)
+    assert np.allclose(r.ellipsoid.center, [3.0, -1.0], atol=1e-6)
+    assert np.allclose(r.ellipsoid.shape, 8.0 * np.eye(2), rtol=1e-6)
+    assert np.all(r.ellipsoid.contains(V))
+
+
+@pytest.mark.parametrize("p,N,seed", [(2, 20, 0), (2, 60, 1), (3, 40, 2), (3, 80, 3)])
+def test_volume_chain_and_containment(p, N, seed):
+    """vol(inner) <= vol(P) <= vol(min-vol around vertices) <= vol(outer), vol(John); the outer
+    and John ellipsoids contain every vertex of P (independent vertex enumeration by Qhull), and
+    random boundary points of the inner ellipsoid satisfy every strip."""
+    P = random_polytope(seed, p, N)
+    V = P.vertices()
+    inner, outer, john = sdp.inner_ellipsoid(P), sdp.outer_ellipsoid(P), sdp.john_outer(P)
+    around = sdp.enclosing_ellipsoid(V)
+    vol = P.volume()
+    assert inner.ellipsoid.volume() <= vol <= around.ellipsoid.volume() * (1 + 1e-9)
+    assert around.ellipsoid.volume() <= outer.ellipsoid.volume() * (1 + 1e-6)
+    assert around.ellipsoid.volume() <= john.ellipsoid.volume() * (1 + 1e-6)
+    assert outer.ellipsoid.volume() <= john.ellipsoid.volume() * (1 + 1e-6)
+    for r in (outer, john, around):
+        assert np.all(r.ellipsoid.contains(V))
+    assert np.all(P.contains(boundary(inner.ellipsoid), atol=1e-9))
+    assert set(outer.strips) == set(P.nonredundant())
+
+
+def test_inner_constraint_generation_equals_full_sdp():
+    """The constraint-generation inner ellipsoid equals a direct cvxpy solve with every strip
+    (second algorithm, unscaled but well conditioned here)."""
+    P = random_polytope(4, 3, 120)
+    r = sdp.inner_ellipsoid(P)
+    B, x0 = cp.Variable((3, 3), PSD=True), cp.Variable(3)
+    Wn, c = P.W / P.e_max[:, None], P.y / P.e_max
+    cons = [cp.norm(Wn @ B, 2, axis=1) + cp.abs(Wn @ x0 - c) <= 1]
+    cp.Problem(cp.Maximize(cp.log_det(B)), cons).solve(solver=cp.CLARABEL)
+    ref = Ellipsoid(x0.value, B.value @ B.value)
+    assert r.ellipsoid.log_volume() == pytest.approx(ref.log_volume(), abs=1e-5)
+    assert np.allclose(r.ellipsoid.center, ref.center, atol=1e-5 * np.abs(ref.center).max())
+    assert r.info["working_sides"] < 2 * 120
+
+
+def test_outer_p14_contains_lp_vertices_and_samples():
+    """p = 14: the S-procedure ellipsoid contains the 28 LP-bound vertices and random points of
+    P (hit-and-run-free check: convex combinations of those vertices), and its projections
+    contain the exact LP intervals; it is not smaller than the inner ellipsoid."""
+    P = random_polytope(6, 14, 300)
+    b = P.bounds()
+    out = sdp.outer_ellipsoid(P)
+    inner = sdp.inner_ellipsoid(P)
+    V = b.vertices()
+    lam = np.random.default_rng(0).dirichlet(np.ones(len(V)), size=500)
+    assert np.all(out.ellipsoid.contains(np.vstack([V, lam @ V])))
+    lo, hi = out.ellipsoid.intervals()
+    assert np.all(lo <= b.lo + 1e-9) and np.all(hi >= b.hi - 1e-9)
+    assert inner.ellipsoid.log_volume() < out.ellipsoid.log_volume()
+
+
+def test_step_ellipsoid_centred_strip_brute_force():
+    """Unit disc ∩ {|x2| <= h}: by symmetry the optimum is x^2/a^2 + y^2/b^2 <= 1 with a >= 1 and
+    (1-h^2)/a^2 + h^2/b^2 <= 1; minimise a b over a fine grid of a (brute force)."""
+    E = Ellipsoid.ball([0.0, 0.0], 1.0)
+    for h in (0.3, 0.5, 0.8):
+        a = np.linspace(1.0, 3.0, 200_001)
+        bb = h / np.sqrt(1 - (1 - h**2) / a**2)
+        i = np.argmin(a * bb)
+        r = sdp.step_ellipsoid(E, [0.0, 1.0], 0.0, h)
+        assert np.allclose(np.sort(r.ellipsoid.semi_axes()), np.sort([a[i], bb[i]]), rtol=1e-4)
+        assert np.allclose(r.ellipsoid.center, 0.0, atol=1e-6)
+
+
+def test_step_ellipsoid_off_centre_vs_enclosing_points():
+    """An ellipse cut by an oblique off-centre strip: the S-procedure step equals the minimum-volume
+    ellipse around dense samples of the boundary of E ∩ strip (second algorithm); containment of
+    those samples is exact."""
+    E = Ellipsoid([1.0, -0.5], [[2.0, 0.6], [0.6, 0.5]])
+    w, y, e = np.array([0.7, -1.2]), 1.9, 0.6
+    r = sdp.step_ellipsoid(E, w, y, e)
+    B = boundary(E, 20000, seed=1)
+    B = B[np.abs(y - B @ w) <= e]
+    # boundary of the strip inside E: points on the two lines, clipped to E
+    t = np.linspace(-5, 5, 20001)
+    d = np.array([1.2, 0.7]) / np.hypot(1.2, 0.7)
+    lines = [(y + s * e) * w / (w @ w) + t[:, None] * d for s in (-1, 1)]
+    L = np.vstack([ln[E.contains(ln)] for ln in lines])
+    pts = np.vstack([B, L])
+    ref = sdp.enclosing_ellipsoid(pts)
+    assert np.all(r.ellipsoid.contains(pts, rtol=1e-7))
+    assert r.ellipsoid.log_volume() == pytest.approx(ref.ellipsoid.log_volume(), abs=2e-3)
+
+
+def test_step_ellipsoid_no_cut_and_outlier():
+    """A strip wider than E leaves E unchanged; a strip missing E raises InfeasibleDataError."""
+    E = Ellipsoid.ball([0.0, 0.0, 0.0], 1.0)
+    r = sdp.step_ellipsoid(E, [1.0, 0.0, 0.0], 0.0, 2.0)
+    assert r.status == "no_cut" and r.ellipsoid is E
+    with pytest.raises(InfeasibleDataError, match="outlier"):
+        sdp.step_ellipsoid(E, [1.0, 0.0, 0.0], 5.0, 1.0)
+
+
+def test_bad_inputs_raise():
+    """Flat point sets, NaN points, wrong shapes, infeasible P: the named errors."""
+    with pytest.raises(InputError, match="span"):
+        sdp.enclosing_ellipsoid(np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]]))
+    with pytest.raises(InputError, match="NaN"):
+        sdp.enclosing_ellipsoid(np.array([[0.0, np.nan], [1.0, 1.0], [2.0, 0.0]]))
+    E = Ellipsoid.ball([0.0, 0.0], 1.0)
+    with pytest.raises(InputError, match="length 2"):
+        sdp.step_ellipsoid(E, [1.0, 0.0, 0.0], 0.0, 1.0)
+    with pytest.raises(InputError, match="e_max"):
+        sdp.step_ellipsoid(E, [1.0, 0.0], 0.0, -1.0)
+    bad = Polytope.from_strips(np.vstack([np.eye(2), np.eye(2)]), [0.0, 0.0, 5.0, 5.0], 1.0)
+    for f in (sdp.inner_ellipsoid, sdp.outer_ellipsoid, sdp.john_outer):
+        with pytest.raises(InfeasibleDataError):
+            f(bad)
+
+
+def test_solver_failure_is_reported(monkeypatch):
+    """A solver that does not reach 'optimal' raises SolverError with its status (no silent
+    fallback); with allow_fallback=True the SCS answer is used and re-verified."""
+    P = random_polytope(8, 2, 15)
+    real = cp.Problem.solve
+
+    def clarabel_fails(self, *args, **kwargs):
+        out = real(self, *args, **kwargs)
+        if kwargs.get("solver") == cp.CLARABEL:
+            self._status = "infeasible_inaccurate"
+        return out
+
+    monkeypatch.setattr(cp.Problem, "solve", clarabel_fails)
+    with pytest.raises(SolverError, match="infeasible_inaccurate"):
+        sdp.inner_ellipsoid(P)
+    r = sdp.outer_ellipsoid(P, allow_fallback=True)
+    assert r.solver == "SCS"
+    assert np.all(r.ellipsoid.contains(P.vertices()))
