@@ -3,12 +3,32 @@
 Four models, generic over any :class:`boundid.models.RobotModel`:
 
 - inverse dynamic   tau = Y(q, qd, qdd) theta                         (needs qdd)
-- filtered dynamic  f*tau = (lambda s/(s+lambda)) Ya theta + f*(Yb theta), f = lambda/(s+lambda)
+- filtered dynamic  f*tau = (lambda s/(s+lambda)) (Ya - Ya(0)) theta + f*(Yb theta), f = lambda/(s+lambda)
 - supplied energy   int tau^T qd = [H(t) - H(0)] + int qd^T f(qd)
 - filtered power    f*(tau^T qd) = (lambda s/(s+lambda)) (H - H(0)) + f*(qd^T f(qd))
 
 Rows are stacked sample-major: for a model with n joints, rows k*n .. k*n + n - 1 are the joints
 of sample k. Energy and power models give one row per sample (``joint = -1``).
+
+The filtered models start the filters from rest at the first sample, so the signal entering the
+derivative filter must start at zero too: that is why it is Ya - Ya(0) and H - H(0). Filtering
+H itself injects lambda H(0) e^{-lambda t}, a transient that exists nowhere in the robot
+(DIRECT_DRIVE_MODEL.md, pitfalls). Pass samples paired with the torque hold
+(:func:`boundid.experiments.filters.zoh_midpoint`, with the default Tustin filters) to avoid the
+half-sample skew of the paper's pairing.
+
+Why the supplied energy model fails with noise (seed 001, section 6.2). Its output is the running
+integral of the power, y_k = h sum_{j<=k} tau_j^T qd_j. Torque noise e_j enters as
+h sum_j e_j^T qd_j: a random walk whose standard deviation grows like sigma |qd|_rms sqrt(h t)
+(sigma = 2 N m, |qd|_rms ~ 4 rad/s, h = 2.5 ms: ~0.4 J after 1 s, ~1.3 J after 10 s), against
+regressor columns (energies of a few J, friction work growing to ~10^2 J) that are themselves
+running integrals, strongly correlated from row to row. Least squares assumes independent errors
+of constant variance; here the error is cumulative and correlated with time, like the friction-work
+columns, so it is absorbed mostly by the friction parameters and, through the correlations, the
+inertia and gravity terms. Filtering instead of integrating (filtered power, filtered dynamic)
+keeps the noise stationary: lambda/(s+lambda) passes white noise with variance
+sigma^2 lambda h / 2 per row, nothing accumulates. The tests in tests/test_regressions.py measure
+this on the simulated arm (numbers in the report of issue 5).
 """
 
 from __future__ import annotations
@@ -17,8 +37,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from boundid._validation import as_regression
+from boundid._validation import as_float_array, as_regression
 from boundid.errors import InputError
+from boundid.experiments.filters import FirstOrderFilters, cumulative_integral
 
 
 @dataclass
@@ -99,3 +120,73 @@ def inverse_dynamic(model, q, qd, qdd, tau, t) -> Regression:
     """tau = Y(q, qd, qdd) theta, one row per joint per sample (the IDIM baseline for WLS/OBE)."""
     Y = model.regressor(q, qd, qdd)
     return stack_joint_rows(Y, tau, t, "inverse_dynamic", model.param_names)
+
+
+def _signals(model, q, qd, tau, t, uniform: bool):
+    """Check (N, n) q, qd, tau and (N,) increasing t; return them and the period h (uniform t only)."""
+    n = model.n_joints
+    arrs = []
+    for name, a in (("q", q), ("qd", qd), ("tau", tau)):
+        a = as_float_array(a, name)
+        if a.ndim == 1 and n == 1:
+            a = a[:, None]
+        if a.ndim != 2 or a.shape[1] != n or not np.all(np.isfinite(a)):
+            raise InputError(f"{name} must be a finite (N, {n}) array for the {model.name} model, got {a.shape}.")
+        arrs.append(a)
+    t = as_float_array(t, "t")
+    N = arrs[0].shape[0]
+    if any(a.shape[0] != N for a in arrs) or t.shape != (N,) or N < 2:
+        raise InputError(f"q, qd, tau need the same N >= 2 samples and t shape (N,); got "
+                         f"{[a.shape for a in arrs]} and {t.shape}.")
+    dt = np.diff(t)
+    if not (np.all(np.isfinite(t)) and np.all(dt > 0)):
+        raise InputError("t must be finite and strictly increasing.")
+    h = float(np.mean(dt))
+    if uniform and np.max(np.abs(dt - h)) > 1e-6 * h:
+        raise InputError(f"the filtered models need uniform sampling; t steps range over [{dt.min():g}, "
+                         f"{dt.max():g}] s. Resample the data first.")
+    return (*arrs, t, h)
+
+
+def filtered_dynamic(model, q, qd, tau, t, lam: float = 50.0, discretisation: str = "tustin") -> Regression:
+    """f*tau = (lambda s/(s+lambda)) (Ya - Ya(0)) theta + f*(Yb theta), f = lambda/(s+lambda); no qdd.
+
+    q, qd, tau : (N, n) samples at the uniformly spaced times t (N,) [s] (pair them with the torque
+    hold first, see :func:`boundid.experiments.filters.zoh_midpoint`); lam [rad/s]; discretisation
+    "tustin" | "paper". One row per joint per sample, in N m.
+    """
+    q, qd, tau, t, h = _signals(model, q, qd, tau, t, uniform=True)
+    flt = FirstOrderFilters(lam, h, discretisation)
+    Ya = model.momentum_regressor(q, qd)
+    W = flt.derivative(Ya - Ya[0]) + flt.lowpass(model.remainder_regressor(q, qd))
+    return stack_joint_rows(W, flt.lowpass(tau), t, "filtered_dynamic", model.param_names,
+                            info={"lam_rad_s": lam, "discretisation": discretisation, "h": h})
+
+
+def supplied_energy(model, q, qd, tau, t) -> Regression:
+    """int_0^t tau^T qd = phi_H(t) theta - phi_H(0) theta + int_0^t phi_f theta (trapezoid rule, in J).
+
+    One row per sample after the first (the first row would be the identity 0 = 0); ``joint = -1``.
+    """
+    q, qd, tau, t, h = _signals(model, q, qd, tau, t, uniform=False)
+    phi_H = model.energy_regressor(q, qd)
+    W = phi_H - phi_H[0] + cumulative_integral(model.friction_power_regressor(qd), t)
+    y = cumulative_integral(np.sum(tau * qd, axis=1), t)
+    N = q.shape[0]
+    return Regression(W[1:], y[1:], np.full(N - 1, -1), np.arange(1, N), t[1:], "supplied_energy",
+                      tuple(model.param_names), unit="J", info={"integration": "trapezoid", "h": h})
+
+
+def filtered_power(model, q, qd, tau, t, lam: float = 50.0, discretisation: str = "tustin") -> Regression:
+    """f*(tau^T qd) = (lambda s/(s+lambda)) (phi_H - phi_H(0)) theta + f*(phi_f theta) (in W).
+
+    Same inputs as :func:`filtered_dynamic`; one row per sample, ``joint = -1``.
+    """
+    q, qd, tau, t, h = _signals(model, q, qd, tau, t, uniform=True)
+    flt = FirstOrderFilters(lam, h, discretisation)
+    phi_H = model.energy_regressor(q, qd)
+    W = flt.derivative(phi_H - phi_H[0]) + flt.lowpass(model.friction_power_regressor(qd))
+    y = flt.lowpass(np.sum(tau * qd, axis=1))
+    N = q.shape[0]
+    return Regression(W, y, np.full(N, -1), np.arange(N), t, "filtered_power", tuple(model.param_names),
+                      unit="W", info={"lam_rad_s": lam, "discretisation": discretisation, "h": h})
