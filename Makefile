@@ -31,5 +31,10 @@ bench: $(STAMP)
 report: $(STAMP)
 	$(BIN)/boundid report
 
+# opens every reports/**/index.html in headless Chromium; fails on a broken image or a script error
+test-browser: $(STAMP)
+	command -v chromium >/dev/null || (apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends chromium)
+	$(BIN)/python tests/browser_check.py reports
+
 clean:
 	rm -rf $(VENV) .pytest_cache build src/*.egg-info
