@@ -10,6 +10,8 @@ friction, so simulations of it are smooth and ``coulomb_width`` is ignored.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from boundid.errors import InputError
@@ -66,3 +68,7 @@ class LinearToy(RobotModel):
         (q, qd), _ = self._states(q, qd)
         th = self._theta(theta)
         return th[1] * np.sin(q) + th[2] * qd
+
+    def fast_acceleration(self, q, qd, u, theta, coulomb_width: float) -> list[float]:
+        """qdd for ONE state in plain floats, no input checks (the simulator's inner loop)."""
+        return [(u[0] - theta[1] * math.sin(q[0]) - theta[2] * qd[0]) / theta[0]]
