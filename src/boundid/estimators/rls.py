@@ -7,7 +7,7 @@ measurement y, with forgetting factor lambda in (0, 1]:
     e     = y - w^T theta                     (a-priori error)
     u     = P w,  d = lambda + w^T u
     theta = theta + u e / d
-    P     = (P - u u^T / d) / lambda
+    P     = (P - v v^T) / lambda,     v = u / sqrt(d)
 
 The same loop, with a per-row measurement variance r (d = lambda r + w^T u) and an optional
 random-walk covariance Q added to P before each step, is the linear Kalman filter with the
@@ -40,7 +40,11 @@ from boundid.sets.ellipsoid import Ellipsoid, log_unit_ball_volume
 PAPER_P0 = 1000.0  # direct-drive paper, section 6: P(0) = diag(1000, ..., 1000), theta(0) = 0
 
 
-@njit(cache=True)
+# Reassociation lets LLVM vectorise the dot products; no nnan/ninf, so NaN and inf still propagate.
+FAST = {"reassoc", "contract", "nsz", "arcp"}
+
+
+@njit(cache=True, fastmath=FAST)
 def filter_loop(W, y, r, inv_lam, Q, theta, P, state, record_every, n0):
     """Run the RLS / Kalman recursion over the rows of W, in place on ``theta`` and ``P``.
 
@@ -72,6 +76,7 @@ def filter_loop(W, y, r, inv_lam, Q, theta, P, state, record_every, n0):
     u = np.empty(p)
     log_lam_p = p * np.log(lam)
     logdet, J, neff = state[0], state[1], state[2]
+    ratio = 1.0  # product of the det factors lambda r / d in (0, 1], folded into logdet before it underflows
     m = 0
     for k in range(N):
         rk = r[k] if per_row_r else r[0]
@@ -91,16 +96,24 @@ def filter_loop(W, y, r, inv_lam, Q, theta, P, state, record_every, n0):
         d = lam * rk + s
         c = 1.0 / d
         ec = e * c
+        sc = np.sqrt(c)
         for i in range(p):
             theta[i] += u[i] * ec
-        for i in range(p):
+            u[i] *= sc
+        for i in range(p):  # P - v v^T with v = u / sqrt(d): P stays exactly symmetric under fastmath
             for j in range(p):
-                P[i, j] = (P[i, j] - (u[i] * u[j]) * c) * inv_lam
+                P[i, j] = (P[i, j] - u[i] * u[j]) * inv_lam
         # det(P_new) = det(P) (lambda r / d) lambda^-p (matrix determinant lemma)
-        logdet += np.log(lam * rk * c) - log_lam_p
+        ratio *= lam * rk * c
+        logdet -= log_lam_p
+        if ratio < 1e-250:
+            logdet += np.log(ratio)
+            ratio = 1.0
         J = lam * (J + e * ec)
         neff = lam * neff + 1.0
         if record_every > 0 and ((n0 + k + 1) % record_every == 0 or k == N - 1):
+            logdet += np.log(ratio)
+            ratio = 1.0
             if has_q:
                 logdet = np.linalg.slogdet(P)[1]
             rec_idx[m] = n0 + k
@@ -109,6 +122,7 @@ def filter_loop(W, y, r, inv_lam, Q, theta, P, state, record_every, n0):
             rec_j[m] = J
             rec_n[m] = neff
             m += 1
+    logdet += np.log(ratio)
     if has_q:
         logdet = np.linalg.slogdet(P)[1]
     state[0], state[1], state[2] = logdet, J, neff
