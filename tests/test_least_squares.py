@@ -70,6 +70,18 @@ def test_wls_finds_group_noise_levels():
     assert np.all(est.info["std_err"] < ols(W, y).info["std_err"])
 
 
+def test_wls_joint_rows_missing_parameters():
+    """Reference: lstsq on the joint's nonzero columns only, dof N_j - (p - 1), as in Gautier's per-joint fit."""
+    rng = np.random.default_rng(8)
+    W, theta, _ = _problem(rng, N=60, p=4)
+    groups = np.repeat([0, 1], 30)
+    W[groups == 1, 0] = 0.0  # joint 1's torque does not depend on parameter 0 (as in a serial arm)
+    y = W @ theta + np.where(groups == 0, 0.1, 0.3) * rng.normal(size=60)
+    est = wls(W, y, groups)
+    rss1 = np.linalg.lstsq(W[groups == 1][:, 1:], y[groups == 1])[1][0]
+    assert est.info["sigma_groups"][1] == pytest.approx(np.sqrt(rss1 / (30 - 3)), rel=1e-10)
+
+
 def _coverage(rng, runs, noise, estimator):
     """Fraction of (run, parameter) pairs whose interval holds the truth, and of runs whose ellipsoid does."""
     hits, ell = 0, 0

@@ -18,6 +18,8 @@ RLS and the Kalman estimator (p = 14 parameters, N = 100 000 regression rows, Ga
 - `ratio` = time for N rows / time of the compiled RLS without history; `max_abs_diff` = largest
   |theta - theta_numba| against the compiled loop of the same filter on the same rows.
 - Compiled cases: best of 3 runs after a warm-up (no compilation in the timings); loops: one run.
+- Absolute rates depend on the machine's load (shared cores halve them); the ratio to filterpy does
+  not much (prototype: 7.2 M/s / 34 k/s = 212x).
 """
 
 

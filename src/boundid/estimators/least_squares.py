@@ -226,7 +226,8 @@ def wls(W, y, groups, level: float = 0.95, names=None) -> Estimate:
     level, names           as in :func:`ols`
 
     ``info`` adds sigma_groups {label: sigma_j} (units of y), groups (labels, sorted),
-    sigma_group_values (array in that order), and condition_number of the weighted W.
+    sigma_group_values (array in that order); condition_number is that of the weighted W and
+    sigma the residual standard deviation of the weighted problem (dimensionless, ~1).
     """
     t0 = time.perf_counter()
     W, y = as_regression(W, y)
