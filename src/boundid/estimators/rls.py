@@ -208,7 +208,9 @@ class LinearFilter(ABC):
         """Recorded centres and ln volumes of the confidence ellipsoid (None if nothing recorded)."""
         if not self._chunks:
             return None
-        idx, c, ld, J, ne = (np.concatenate([ch[i] for ch in self._chunks]) for i in range(5))
+        if len(self._chunks) > 1:  # merge once; later reads reuse the merged arrays
+            self._chunks = [tuple(np.concatenate([ch[i] for ch in self._chunks]) for i in range(5))]
+        idx, c, ld, J, ne = self._chunks[0]
         return History(index=idx, centers=c, log_volumes=self._log_volumes(ld, J, ne))
 
     def _estimate(self, method, cov, scale2, quantile, dof, extra) -> Estimate:
