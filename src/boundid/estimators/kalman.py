@@ -77,8 +77,6 @@ class KalmanEstimator(LinearFilter):
     with RLS, ``engine="filterpy"`` the filterpy reference loop. Both continue from the current state.
     """
 
-    method = "Kalman"
-
     def __init__(self, p, theta0, P0, R, Q=0.0, record_every=1, names=None, level=0.95):
         if not (isinstance(p, int | np.integer) and p >= 1):
             raise InputError(f"p (number of parameters) must be a positive integer, got {p!r}.")

@@ -136,8 +136,6 @@ class LinearFilter(ABC):
     the number of samples n and the recorded history chunks.
     """
 
-    method = "linear filter"
-
     def __init__(self, p, theta0, P0, record_every, names, level):
         if not (isinstance(p, int | np.integer) and p >= 1):
             raise InputError(f"p (number of parameters) must be a positive integer, got {p!r}.")
@@ -272,8 +270,6 @@ class RLS(LinearFilter):
     compiled loop over a batch and continues from the current state. Both return the state as an
     :class:`Estimate` (``fit``) or the a-priori error (``update``).
     """
-
-    method = "RLS"
 
     def __init__(self, p, theta0=None, P0=None, forgetting=1.0, record_every=1, names=None, level=0.95):
         super().__init__(p, theta0, P0, record_every, names, level)
