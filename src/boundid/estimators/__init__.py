@@ -16,3 +16,7 @@ from boundid.estimators.least_squares import RankDeficientError, ols, wls  # noq
 from boundid.estimators.rls import RLS  # noqa: E402
 
 __all__ += ["KalmanEstimator", "RLS", "RankDeficientError", "ols", "wls"]
+
+from boundid.estimators.certify import Certificate, validate  # noqa: E402
+
+__all__ += ["Certificate", "validate"]
