@@ -11,7 +11,7 @@ from scipy.optimize import minimize_scalar
 from boundid.errors import InfeasibleDataError, InputError, SolverError
 from boundid.estimators import OBE
 from boundid.estimators import _obe_kernels as K
-from boundid.sets import Polytope
+from boundid.sets import Ellipsoid, Polytope, step_ellipsoid
 
 CRITERIA = ("volume", "trace", "dasgupta-huang")
 FORMS = ("standard", "factorized")
@@ -212,6 +212,37 @@ def test_cardano_root_matches_numpy_roots():
         r = np.roots([b3, b2, b1, b0])
         ref = r.real[(np.abs(r.imag) <= 1e-9 * np.abs(r)) & (r.real > 0)].min()
         assert K.smallest_positive_cubic_root(b3, b2, b1, b0) == pytest.approx(ref, rel=1e-7)
+
+
+@pytest.mark.parametrize("form", FORMS)
+def test_clipped_volume_step_is_the_exact_one_step_optimum(form):
+    """Exact reference: the minimum-volume ellipsoid of E ∩ strip by SDP (sets.step_ellipsoid,
+    S-procedure, exact for one ellipsoid and one strip). The clipped Fogel-Huang step has the
+    same volume (1e-6 relative) and centre, with both hyperplanes cutting E, or one missing it."""
+    rng = np.random.default_rng(21)
+    n_cut = 0
+    for k in range(24):
+        n = int(rng.integers(2, 6))
+        A = rng.normal(size=(n, n))
+        S = A @ A.T + 0.1 * np.eye(n)
+        c = rng.normal(size=n)
+        w = rng.normal(size=n)
+        m, r = w @ c, np.sqrt(w @ S @ w)
+        case = k % 3
+        if case == 0:  # both sides cut E
+            e = r * rng.uniform(0.1, 0.7)
+            y = m + rng.uniform(-1, 1) * (r - e)
+        else:  # one side inside E, the other beyond E's extent
+            u = rng.uniform(-0.9, 0.9)
+            e = r * (1 - u) * rng.uniform(0.6, 1.5)
+            y = m + r * u + e if case == 1 else m - r * u - e
+        ref = step_ellipsoid(Ellipsoid(c, S), w, y, e).ellipsoid
+        est = OBE(n, center0=c, shape0=S, form=form).update(w, y, e)
+        assert abs(est.ellipsoid.log_volume() - ref.log_volume()) <= 1e-6, (k, case)
+        scale = np.sqrt(np.max(np.diag(ref.shape)))
+        np.testing.assert_allclose(est.center, ref.center, atol=1e-4 * scale)
+        n_cut += est.info["n_updates"]
+    assert n_cut >= 16
 
 
 # ---------------------------------------------------------------------------- against the polytope

@@ -1,0 +1,130 @@
+"""Tests of boundid.estimators.certify.validate (distance of a set estimate to the exact optimum)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog
+from scipy.spatial import HalfspaceIntersection
+
+from boundid.errors import InputError
+from boundid.estimators import OBE, Certificate, Estimate, validate
+from boundid.sets import Ellipsoid, Polytope, enclosing_ellipsoid
+
+
+def _problem(seed, p, N, e=0.5):
+    rng = np.random.default_rng(seed)
+    theta = rng.normal(size=p)
+    W = rng.normal(size=(N, p))
+    y = W @ theta + rng.uniform(-e, e, N)
+    return theta, W, y, e
+
+
+def _linprog_bounds(W, y, e):
+    """Independent LP bounds: scipy.optimize.linprog on the raw inequalities."""
+    A = np.vstack([W, -W])
+    b = np.concatenate([y + e, -(y - e)])
+    p = W.shape[1]
+    lo, hi = np.empty(p), np.empty(p)
+    for j in range(p):
+        c = np.zeros(p)
+        c[j] = 1.0
+        lo[j] = linprog(c, A_ub=A, b_ub=b, bounds=(None, None), method="highs").fun
+        hi[j] = -linprog(-c, A_ub=A, b_ub=b, bounds=(None, None), method="highs").fun
+    return lo, hi
+
+
+def _qhull_vertices(W, y, e):
+    """Independent vertex enumeration: scipy HalfspaceIntersection from the linprog Chebyshev centre."""
+    A = np.vstack([W, -W])
+    b = np.concatenate([y + e, -(y - e)])
+    nrm = np.linalg.norm(A, axis=1)
+    p = W.shape[1]
+    res = linprog(np.r_[np.zeros(p), -1.0], A_ub=np.column_stack([A, nrm]), b_ub=b,
+                  bounds=[(None, None)] * p + [(0, None)], method="highs")
+    return HalfspaceIntersection(np.column_stack([A, -b]), res.x[:p]).intersections
+
+
+@pytest.mark.parametrize("p", [2, 3])
+def test_obe_estimate_certified_against_independent_references(p):
+    """References: LP bounds by scipy linprog, vertices by scipy HalfspaceIntersection (both
+    independent of boundid.sets). The OBE ellipsoid contains every vertex, its intervals are at
+    least the LP bounds, and the volume excesses are ordered: over the inscribed ellipsoid >=
+    over P >= over the minimum-volume outer ellipsoid >= 0."""
+    theta, W, y, e = _problem(p, p, 12 * p)
+    est = OBE(p, shape0=1e4).fit(W, y, e)
+    cert = validate(est, Polytope.from_strips(W, y, e))
+    assert isinstance(cert, Certificate)
+    lo, hi = _linprog_bounds(W, y, e)
+    np.testing.assert_allclose(cert.lp_lo, lo, atol=1e-7)
+    np.testing.assert_allclose(cert.lp_hi, hi, atol=1e-7)
+    V = _qhull_vertices(W, y, e)
+    assert np.all(est.ellipsoid.contains(V, rtol=1e-8))
+    assert cert.contains_polytope and cert.vertex_kind == "all" and cert.n_outside == 0
+    assert cert.n_vertices >= p + 1
+    assert np.all(cert.width_ratio >= 1 - 1e-9)
+    np.testing.assert_allclose(cert.width_ratio, (cert.hi - cert.lo) / (hi - lo), rtol=1e-6)
+    assert cert.excess_inner >= cert.excess_polytope >= cert.excess_outer >= -1e-6
+    assert cert.excess_inner - cert.excess_outer > 0.01
+
+
+def test_exact_optimum_has_zero_excess_and_a_shrunk_ellipsoid_fails():
+    """Reference: the minimum-volume ellipsoid of the vertices (sets.enclosing_ellipsoid) is the
+    exact optimum: its outer excess is 0 and it contains P. Shrunk by 0.9 it must miss vertices."""
+    theta, W, y, e = _problem(3, 2, 25)
+    P = Polytope.from_strips(W, y, e)
+    opt = enclosing_ellipsoid(P.vertices()).ellipsoid
+    cert = validate(opt, P)
+    assert cert.method == "ellipsoid" and cert.contains_polytope
+    assert abs(cert.excess_outer) <= 1e-6
+    assert cert.excess_polytope > 0 and cert.excess_inner > cert.excess_polytope
+    bad = validate(opt.scaled(0.9), P, outer=opt, volumes=True)
+    assert not bad.contains_polytope and bad.n_outside >= 1 and bad.max_mahalanobis2 > 1.1
+    assert bad.excess_outer == pytest.approx(np.log(0.9), rel=1e-9)
+    assert "NO" in bad.summary()
+
+
+def test_p14_certificate_uses_lp_bound_vertices():
+    """p = 14 (the H4 size): vertices cannot be enumerated, the 2p LP-bound vertices are checked;
+    the S-procedure outer ellipsoid is the outer reference (it contains them too). The OBE
+    intervals are several times wider than the exact bounds (REFERENCES §4: ~6x)."""
+    theta, W, y, e = _problem(14, 14, 200)
+    est = OBE(14, shape0=1e4).fit(W, y, e)
+    cert = validate(est, (W, y, e))
+    assert cert.vertex_kind == "lp-bound" and cert.n_vertices == 28
+    assert cert.contains_polytope
+    assert np.isnan(cert.log_volume_polytope)
+    assert np.all(cert.width_ratio >= 1.0) and np.mean(cert.width_ratio) > 2.0
+    assert cert.excess_inner > cert.excess_outer > 0
+    df = cert.to_frame()
+    assert list(df.index) == [f"theta{j + 1}" for j in range(14)]
+    assert "width_ratio" in df and "LP-bound" in cert.summary()
+
+
+def test_volumes_can_be_skipped_and_references_reused():
+    """volumes=False gives NaN excesses (no SDP); supplied references are used as given."""
+    theta, W, y, e = _problem(5, 2, 20)
+    P = Polytope.from_strips(W, y, e)
+    est = OBE(2, shape0=1e4, names=["a", "b"]).fit(W, y, e)
+    cert = validate(est, P, volumes=False)
+    assert np.isnan(cert.excess_outer) and cert.contains_polytope
+    assert cert.names == ("a", "b")
+    ball = Ellipsoid.ball(np.zeros(2), 100.0)
+    cert2 = validate(est, P, outer=ball, inner=ball)
+    assert cert2.log_volume_outer == pytest.approx(ball.log_volume())
+    assert cert2.outer_kind == "supplied"
+
+
+def test_bad_input_raises_input_error():
+    """Dimension mismatch, a point estimate, a wrong type -> InputError."""
+    theta, W, y, e = _problem(6, 2, 20)
+    P = Polytope.from_strips(W, y, e)
+    with pytest.raises(InputError, match="dimension"):
+        validate(Ellipsoid.ball(np.zeros(3), 1.0), P, volumes=False)
+    point = Estimate("OLS", np.zeros(2), None, (np.zeros(2), np.zeros(2)), "point")
+    with pytest.raises(InputError, match="no ellipsoid"):
+        validate(point, P)
+    with pytest.raises(InputError):
+        validate(np.eye(2), P)
+    with pytest.raises(InputError):
+        validate(Ellipsoid.ball(np.zeros(2), 1.0), "polytope")
