@@ -48,11 +48,38 @@ class ExperimentConfig:
 
 @dataclass(frozen=True)
 class PreprocessingConfig:
-    velocity: str = "backward_difference"  # | "central_difference"
+    """How regressions are built from the recording.
+
+    pairing : how the filtered/energy models pair each held torque u[k] with the state:
+        "zoh_midpoint" (midpoint of the hold interval, velocity (q[k+1] - q[k]) / h) or "paper"
+        (q[k] with the backward difference, as seed 001)
+    lowpass_cutoff_hz : zero-phase Butterworth cut-off before the central differences that give
+        qd and qdd for the inverse dynamic model (None: no filter)
+    decimation : parallel filtering and decimation factor of the inverse dynamic rows
+    lambda_rad_s, discretisation : the filters lambda/(s + lambda), lambda s/(s + lambda)
+    """
+
+    pairing: str = "zoh_midpoint"
     lowpass_cutoff_hz: float | None = None
     decimation: int = 1
     lambda_rad_s: float = 50.0
     discretisation: str = "tustin"  # | "paper"
+
+
+@dataclass(frozen=True)
+class PriorConfig:
+    """Prior knowledge: the box center +- half-width, shared by the OBE initial ellipsoid (which
+    circumscribes it) and the exact polytope (which is intersected with it).
+
+    center : "model" (the robot's a-priori values; unknown ones at 0) or "zero"
+    relative_range : half-width as a fraction of |a-priori value| where one is known
+    absolute_range : half-width where no a-priori value is known (or center = "zero"), in each
+        parameter's unit
+    """
+
+    center: str = "zero"
+    relative_range: float = 1.0
+    absolute_range: float = 1000.0
 
 
 @dataclass(frozen=True)
@@ -82,6 +109,7 @@ class StudyConfig:
     robot_options: dict
     experiment: ExperimentConfig
     preprocessing: PreprocessingConfig
+    prior: PriorConfig
     regressions: tuple[str, ...]
     estimators: tuple[EstimatorConfig, ...]
     exact: ExactConfig
@@ -97,7 +125,7 @@ class StudyConfig:
 _ESTIMATOR_OPTIONS = {
     # method: {option: (type, allowed values or None)}
     "obe": {"form": (str, ("standard", "factorized")), "criterion": (str, ("volume", "trace", "dasgupta-huang")),
-            "e_max": (float, None), "prior_scale": (float, None), "friction_prior_range": (float, None)},
+            "e_max": (float, None)},
     "rls": {"theta0": (float, None), "P0": (float, None), "forgetting": (float, None)},
     "ols": {"level": (float, None)},
     "wls": {"level": (float, None)},
@@ -182,13 +210,20 @@ def load_study(path: str | Path) -> StudyConfig:
     experiment = _experiment(top.section("experiment", required=True), path.parent)
     pp = top.section("preprocessing")
     preprocessing = PreprocessingConfig(
-        velocity=pp.str("velocity", "backward_difference", choices=("backward_difference", "central_difference")),
+        pairing=pp.str("pairing", "zoh_midpoint", choices=("zoh_midpoint", "paper")),
         lowpass_cutoff_hz=pp.float("lowpass_cutoff_hz", None, lo=0.0, strict_lo=True),
         decimation=pp.int("decimation", 1, lo=1),
         lambda_rad_s=pp.float("lambda_rad_s", 50.0, lo=0.0, strict_lo=True),
         discretisation=pp.str("discretisation", "tustin", choices=("tustin", "paper")),
     )
     pp.check_unknown()
+    pr = top.section("prior")
+    prior = PriorConfig(
+        center=pr.str("center", "zero", choices=("model", "zero")),
+        relative_range=pr.float("relative_range", 1.0, lo=0.0, strict_lo=True),
+        absolute_range=pr.float("absolute_range", 1000.0, lo=0.0, strict_lo=True),
+    )
+    pr.check_unknown()
     regressions = tuple(top.list("regressions", choices=REGRESSIONS))
     if not regressions:
         raise top.error("regressions", f"names no regression model; choose among {', '.join(REGRESSIONS)}.")
@@ -221,6 +256,7 @@ def load_study(path: str | Path) -> StudyConfig:
         robot_options=robot_options,
         experiment=experiment,
         preprocessing=preprocessing,
+        prior=prior,
         regressions=regressions,
         estimators=estimators,
         exact=exact,

@@ -1,0 +1,221 @@
+"""The report page of one study run: set-up, the paper's table beside ours, convergence,
+validation, and the distance of every estimator to the exact optimum.
+
+Every number on the page is computed by the run that writes it; the paper's own published
+figures appear only in columns and captions labelled "paper".
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from boundid.report import figures as F
+from boundid.report.html import Page
+from boundid.report.tables import deviation_percent, estimate_summary, parameter_table, widths
+from boundid.sets import log_unit_ball_volume
+from boundid.studies.certify_files import certificate_row
+from boundid.studies.projection import shadow_points
+from boundid.studies.runner import StudyResult
+
+
+def _setup(r: StudyResult) -> dict:
+    cfg, rec, exp = r.config, r.data.recording, r.config.experiment
+    setup = {"robot": f"{r.model.name} ({r.model.n_joints} joints, {r.model.p} parameters)",
+             "data": exp.source if exp.source == "measured" else f"simulated, {exp.control.replace('_', ' ')}",
+             "samples": f"{rec.t.size} at h = {rec.h * 1e3:g} ms ({rec.t[-1] - rec.t[0]:.4g} s)"}
+    if exp.source == "simulate":
+        n = exp.torque_noise
+        setup["torque noise"] = "none" if n.kind == "none" else f"{n.kind}, level {n.level:g} N m"
+        setup["encoder"] = f"{exp.encoder_counts_per_rev} counts/rev" if exp.encoder_counts_per_rev else "exact"
+    setup["regressions"] = ", ".join(f"{k} ({v.n_rows} rows, {v.unit})" for k, v in r.regressions.items())
+    setup["seed"] = cfg.seed
+    setup["run time"] = f"{sum(r.timings.values()):.1f} s (" + ", ".join(
+        f"{k} {v:.1f}" for k, v in r.timings.items()) + ")"
+    return setup
+
+
+def _det_shape(est) -> float:
+    """det(M^-1) of E = {(theta - c)^T M (theta - c) <= 1}: the H4 paper's uncertainty volume."""
+    return float(np.exp(2.0 * (est.ellipsoid.log_volume() - log_unit_ball_volume(est.p))))
+
+
+def _paper_section_h4(page: Page, r: StudyResult) -> None:
+    m, names = r.model, r.model.param_names
+    ests = {lab: e for (lab, rn), e in r.estimates.items() if rn == "inverse_dynamic"}
+    cols: dict = {"truth (paper Table I centre)": m.theta_true, "a-priori (Table I)": m.theta_prior}
+    for lab, e in ests.items():
+        cols[f"{lab} centre"] = e.center
+        if "std_err" in e.info:
+            cols[f"{lab} sigma"] = np.asarray(e.info["std_err"])
+    if r.exact is not None and r.exact.bounds is not None:
+        cols["LP exact"] = (r.exact.bounds.lo, r.exact.bounds.hi)
+    for lab, e in ests.items():
+        if e.guaranteed:
+            cols[f"{lab} interval"] = e.intervals
+    page.section("Table I, reproduced",
+                 "The simulation's true values are the centre of the paper's Table I; the a-priori values are "
+                 "its right column. Every other column is computed by this run.")
+    page.table(parameter_table(names, cols), "Identified parameters (SI units) beside the truth and the prior.",
+               name="table_I")
+    rows = {}
+    paper = r.config.paper
+    for lab, e in ests.items():
+        if not e.guaranteed:
+            continue
+        n = e.info.get("n_samples", 0)
+        rows[lab] = {"det(M^-1) ours": _det_shape(e), "det(M^-1) paper": paper.get("uncertainty_volume", np.nan),
+                     "outliers ours [%]": 100.0 * e.outliers.size / max(n, 1),
+                     "outliers paper [%]": f"< {paper.get('outlier_rate_percent_below', 'n/a')}",
+                     "updates": e.info.get("n_updates", np.nan), "samples": n}
+    if rows:
+        page.table(pd.DataFrame.from_dict(rows, orient="index").rename_axis("estimate"),
+                   "Uncertainty volume det(M^-1) and outlier rate after all data, beside the paper's.",
+                   float_format="{:.4g}", name="volume_outliers")
+
+
+def _paper_section_direct_drive(page: Page, r: StudyResult) -> None:
+    m, names = r.model, r.model.param_names
+    rls = {rn: e for (lab, rn), e in r.estimates.items() if e.method == "RLS"}
+    page.section("Table II, reproduced: RLS on three regression models",
+                 "Final RLS estimates (theta(0) = 0, P(0) = 1000 I) per regression model, and their deviation "
+                 "from the simulation's true values. Paper's outcome: " + str(r.config.paper.get("outcome", "")))
+    cols = {"truth": m.theta_true, **{rn: e.center for rn, e in rls.items()}}
+    page.table(parameter_table(names, cols), "Final RLS estimates per regression model.", name="table_II")
+    dev = deviation_percent({rn: e.center for rn, e in rls.items()}, m.theta_true, names)
+    page.table(dev, "Deviation from truth, 100 (theta_hat - theta) / theta [%].", float_format="{:.3g}",
+               name="deviation")
+    if rls:
+        hist = {rn: e.history for rn, e in rls.items() if e.history is not None}
+        t = {rn: r.regressions[rn] for rn in hist}
+        # histories index rows of each regression; map to time through that regression's t
+        timed = {rn: (t[rn].t[h.index], h.centers) for rn, h in hist.items()}
+        fig = F.parameter_convergence(None, {rn: (tt, c) for rn, (tt, c) in timed.items()}, m.theta_true, names,
+                                      units=m.param_units)
+        fig.axes[-1].set_xlabel("time [s]")
+        page.figure(fig, "Parameter convergence theta_hat(t) of RLS per regression model (dashed: truth).",
+                    name="convergence")
+
+
+def _validation_section(page: Page, r: StudyResult) -> None:
+    v = r.validation
+    if "resimulation" in v:
+        page.section("Open-loop re-simulation with the identified parameters",
+                     "The robot is simulated again under the same torques with each identified parameter vector; "
+                     "the joint positions are compared with the measured ones (the paper's validation).")
+        rows = {}
+        for rs in v["resimulation"]:
+            rows[rs.label] = ({f"RMS error q{j + 1} [rad]": x for j, x in enumerate(rs.rms_error_rad)}
+                              if rs.failure is None else {"failure": rs.failure})
+        page.table(pd.DataFrame.from_dict(rows, orient="index").rename_axis("parameters from"),
+                   "Position error of the open-loop re-simulation.", float_format="{:.3g}", name="resimulation")
+        ok = {rs.label: rs.q for rs in v["resimulation"] if rs.failure is None and
+              ("RLS" in rs.label or "WLS / inverse" in rs.label)}
+        if ok:
+            page.figure(F.trajectory_comparison(r.data.recording.t, r.data.recording.q, ok),
+                        "Measured joint positions and the open-loop re-simulations (right: difference).",
+                        name="resimulation")
+    if "torque_bands" in v and v["torque_bands"]:
+        reg, bands = v["validation_regression"], v["torque_bands"]
+        n = r.model.n_joints
+        measured = reg.y.reshape(-1, n)
+        t = reg.t.reshape(-1, n)[:, 0]
+        page.section("Cross-validation: torque bounds of eq. (37)",
+                     "On a trajectory not used for identification, the guaranteed torque bounds "
+                     "y = w^T theta_hat +- sqrt(w^T M^-1 w) of the OBE, beside the 95 % prediction band of WLS.")
+        rows = {lab: {"kind": b.kind, "samples outside [%]": 100 * b.outside_fraction(measured),
+                      "mean half-width [N m]": float(np.mean(b.half_width))} for lab, b in bands.items()}
+        page.table(pd.DataFrame.from_dict(rows, orient="index").rename_axis("estimate"),
+                   "Measured validation torques outside each band.", float_format="{:.3g}", name="crossval")
+        main = next((lab for lab, b in bands.items() if b.kind == "guaranteed"), next(iter(bands)))
+        extra = {lab: (b.center - b.half_width, b.center + b.half_width) for lab, b in bands.items()
+                 if lab != main and b.kind == "statistical"}
+        page.figure(F.torque_bounds(t, measured, bands[main].center, bands[main].half_width,
+                                    band_label=f"{main} bounds", extra_bands=extra),
+                    f"Measured torque on the validation trajectory inside the {main} bounds (eq. 37).",
+                    name="torque_bounds")
+
+
+def _exact_section(page: Page, r: StudyResult) -> None:
+    ex = r.exact
+    if ex is None:
+        return
+    m, names = r.model, r.model.param_names
+    page.section("Distance to the exact optimum",
+                 f"The feasible polytope of the {ex.regression} rows with |e| <= {ex.e_max:g}, intersected with the "
+                 f"prior box: gamma* = {ex.gamma_star:.4g} (the data are consistent with the bounds iff gamma* <= 1).")
+    if np.isfinite(ex.truth_error_ratio):
+        holds = ex.truth_violations == 0
+        page.text(f"At the true parameters the largest error is {ex.truth_error_ratio:.3g} x e_max: the bound "
+                  + ("holds on every row, so every guaranteed set must contain the truth." if holds else
+                     f"is exceeded on {ex.truth_violations} rows, so no set-membership guarantee applies to "
+                     "this data set: the truth may legitimately lie outside the sets."))
+    for what, msg in ex.errors.items():
+        page.text(f"{what}: {msg}.")
+    sets = {lab: e for (lab, rn), e in r.estimates.items() if rn == ex.regression and e.ellipsoid is not None}
+    if ex.bounds is not None:
+        w = widths(names, {"LP exact": (ex.bounds.lo, ex.bounds.hi),
+                           **{lab: e.intervals for lab, e in sets.items() if e.guaranteed},
+                           **{f"SDP {k}": v.ellipsoid.intervals() for k, v in ex.sdp.items()}})
+        page.figure(F.width_ratios(w), "Per-parameter interval width over the exact LP width (1 = exact).",
+                    name="width_ratios")
+    logv = {lab: e.ellipsoid.log_volume() / m.p for lab, e in sets.items() if e.guaranteed}
+    logv.update({f"SDP {k}": v.ellipsoid.log_volume() / m.p for k, v in ex.sdp.items()})
+    if logv:
+        page.figure(F.log_volume_bars(logv), "ln volume per dimension of the guaranteed and SDP ellipsoids "
+                    "(the inner ellipsoid is a lower bound on any outer one).", name="log_volumes")
+    rows = {lab: certificate_row(cert) for lab, cert in ex.certificates.items()}
+    if rows:
+        page.table(pd.DataFrame.from_dict(rows, orient="index").rename_axis("estimate"),
+                   "Certification of each guaranteed set against the exact optima.", float_format="{:.4g}",
+                   name="certificates")
+    ref = (ex.bounds.lo, ex.bounds.hi) if ex.bounds is not None else None
+    ests = {lab: e for (lab, rn), e in r.estimates.items()}
+    page.table(estimate_summary({f"{lab} / {rn}": e for (lab, rn), e in r.estimates.items()}, m.theta_true,
+                                reference=ref if all(e.p == m.p for e in ests.values()) else None),
+               "Every estimate: set kind, volume, mean width (over the exact width), truth containment, run time.",
+               float_format="{:.4g}", name="estimates")
+    for a, b in r.config.exact.projections:
+        idx = [names.index(a), names.index(b)]
+        pts = shadow_points(ex.polytope, idx) if ex.bounds is not None else None
+        ells = {lab: e.ellipsoid.project(idx) for lab, e in sets.items()}
+        ells.update({f"SDP {k}": v.ellipsoid.project(idx) for k, v in ex.sdp.items()})
+        box = ((ex.bounds.lo[idx], ex.bounds.hi[idx]) if ex.bounds is not None else None)
+        page.figure(F.projection_2d(pts, ells, m.theta_true[idx], box, (a, b),
+                                    units=[m.param_units[i] for i in idx]),
+                    f"Projection on ({a}, {b}): exact polytope shadow (grey), LP box (dashed), ellipsoids, "
+                    "truth (star).",
+                    name=f"projection_{a}_{b}")
+
+
+def _convergence_sets(page: Page, r: StudyResult) -> None:
+    obe = {lab: e.history for (lab, rn), e in r.estimates.items() if e.guaranteed and e.history is not None}
+    if obe:
+        page.section("Recursive set estimates over the samples")
+        page.figure(F.volume_history({lab: (h.index, h.log_volumes) for lab, h in obe.items()}),
+                    "ln volume of the OBE ellipsoids against the number of rows processed.", name="volume_history")
+        if r.model.name == "h4":
+            first = next(iter(obe))
+            page.figure(F.parameter_convergence(None, {lab: h for lab, h in obe.items()}, r.model.theta_true,
+                                                r.model.param_names, units=r.model.param_units),
+                        f"Centres of the OBE ellipsoids against the row index (dashed: truth); {first} is the "
+                        "paper's estimator.", name="obe_convergence")
+
+
+def write_study_report(r: StudyResult, out_dir: str | Path) -> Path:
+    """Write ``out_dir/index.html`` (self-contained) with figures/, tables/, summary.md and results.csv."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    cfg = r.config
+    page = Page(cfg.title, cfg.description.strip(), setup=_setup(r))
+    if cfg.robot == "h4":
+        _paper_section_h4(page, r)
+    elif cfg.robot == "direct_drive":
+        _paper_section_direct_drive(page, r)
+    _convergence_sets(page, r)
+    _validation_section(page, r)
+    _exact_section(page, r)
+    r.table.to_csv(out_dir / "results.csv", index=False)
+    return page.write(out_dir / "index.html")

@@ -1,0 +1,64 @@
+"""Getting a study's data: simulate the robot and measure it, or read a recording."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from boundid.errors import StudyError
+from boundid.experiments.excitation import RampedMultisine
+from boundid.experiments.recording import Recording, read_recording
+from boundid.experiments.simulation import Trajectory, measure, simulate_open_loop
+from boundid.models import RobotModel
+from boundid.studies.config import StudyConfig
+
+
+@dataclass
+class StudyData:
+    """recording: what identification sees (measured q [rad], tau [N m] at t [s]).
+    truth: the noise-free simulated trajectory (None for measured data).
+    validation / validation_truth: a second, different experiment for cross-validation (or None).
+    excitation: the open-loop torque law (for re-simulation), if any.
+    """
+
+    recording: Recording
+    truth: Trajectory | None = None
+    validation: Recording | None = None
+    validation_truth: Trajectory | None = None
+    excitation: object | None = None
+    info: dict = field(default_factory=dict)
+
+
+def _recording(traj: Trajectory) -> Recording:
+    return Recording(t=traj.t, q=traj.q, tau=traj.tau)
+
+
+def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:
+    """Simulate (open or closed loop) and measure, or read the study's recording."""
+    exp = cfg.experiment
+    if exp.source == "measured":
+        m = exp.measured
+        rec = read_recording(m.file, m.time, m.q, m.tau)
+        if rec.n_joints != model.n_joints:
+            raise StudyError(f"{cfg.file}: the recording has {rec.n_joints} joints, the {model.name} model "
+                             f"{model.n_joints}; map one q and one tau column per joint.")
+        return StudyData(recording=rec, info={"source": str(m.file)})
+    if exp.control == "open_loop":
+        return _open_loop(cfg, model, rng)
+    from boundid.studies.h4_experiment import closed_loop_data
+
+    return closed_loop_data(cfg, model, rng)
+
+
+def _open_loop(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:
+    exp = cfg.experiment
+    if model.n_joints != 2:
+        raise StudyError(f"{cfg.file}: experiment.control = 'open_loop' drives the paper's 2-joint torques "
+                         f"(31)-(32); the {model.name} model has {model.n_joints} joints.")
+    excitation = RampedMultisine.direct_drive_paper()
+    traj = simulate_open_loop(model, excitation, exp.duration_s, exp.sample_period_s,
+                              coulomb_width=exp.coulomb_width_rad_s)
+    meas = measure(traj, exp.encoder_counts_per_rev, exp.torque_noise, rng)
+    return StudyData(recording=_recording(meas), truth=traj, excitation=excitation,
+                     info={"torque_outliers": int(meas.info["outliers"].sum())})

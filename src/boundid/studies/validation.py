@@ -1,0 +1,99 @@
+"""Validation of identified parameters on data they were not fitted to (or by re-simulation).
+
+- open loop (seed 001): re-simulate the robot with each identified theta under the same torques
+  and compare the joint positions with the measured ones;
+- cross-validation trajectory (seed 000, eq. 37): predict the torque of a different experiment,
+  with the guaranteed bounds y = w^T theta_hat +- sqrt(w^T S w) (S the OBE shape matrix) and the
+  statistical 95 % prediction band w^T theta_hat +- 1.96 sqrt(w^T Cov w + sigma^2).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from boundid.errors import BoundidError
+from boundid.estimators import Estimate
+from boundid.experiments.simulation import simulate_open_loop
+from boundid.models import RobotModel
+from boundid.studies.config import StudyConfig
+from boundid.studies.data import StudyData
+
+
+@dataclass
+class Resimulation:
+    """Open-loop re-simulation with identified parameters. q: (N, n) rad, or None with the reason."""
+
+    label: str
+    q: np.ndarray | None
+    rms_error_rad: np.ndarray | None
+    failure: str | None = None
+
+
+@dataclass
+class TorqueBand:
+    """Predicted torque on the validation trajectory: centre and half-width, (N, n) N m each."""
+
+    label: str
+    center: np.ndarray
+    half_width: np.ndarray
+    kind: str
+
+    def outside_fraction(self, measured: np.ndarray) -> float:
+        return float(np.mean(np.abs(measured - self.center) > self.half_width))
+
+
+def _mass_matrix_pd(model: RobotModel, q: np.ndarray, theta: np.ndarray) -> bool:
+    """Whether M(q, theta) is positive definite at every sampled q (physically consistent theta)."""
+    return bool(np.all(np.linalg.eigvalsh(model.mass_matrix(q[::10], theta)) > 0))
+
+
+def resimulate(cfg: StudyConfig, model: RobotModel, data: StudyData, label: str, theta: np.ndarray) -> Resimulation:
+    exp, rec = cfg.experiment, data.recording
+    if not _mass_matrix_pd(model, rec.q, theta):
+        return Resimulation(label, None, None, "M(q) is not positive definite along the trajectory: "
+                                               "these parameters describe no physical robot")
+    try:
+        traj = simulate_open_loop(model, data.excitation, exp.duration_s, exp.sample_period_s, theta=theta,
+                                  coulomb_width=exp.coulomb_width_rad_s, rtol=1e-8, atol=1e-8)
+    except (BoundidError, np.linalg.LinAlgError) as exc:
+        return Resimulation(label, None, None, f"simulation failed: {exc}")
+    rms = np.sqrt(np.mean((traj.q - rec.q) ** 2, axis=0))
+    return Resimulation(label, traj.q, rms)
+
+
+def torque_bands(model: RobotModel, W: np.ndarray, n_joints: int, estimates: dict[str, Estimate],
+                 joint: np.ndarray) -> dict[str, TorqueBand]:
+    """Eq. (37) bounds for guaranteed sets, 95 % prediction bands for statistical ones."""
+    bands = {}
+    for label, est in estimates.items():
+        center = W @ est.center
+        if est.guaranteed:
+            L = np.linalg.cholesky(est.ellipsoid.shape)
+            half = np.linalg.norm(W @ L, axis=1)  # sqrt(w^T S w), eq. (37)
+        elif "cov" in est.info:
+            var = np.einsum("ij,jk,ik->i", W, np.asarray(est.info["cov"]), W)
+            sig = est.info.get("sigma_groups")
+            noise = np.asarray([sig[j] for j in joint]) ** 2 if isinstance(sig, dict) else 0.0
+            half = 1.96 * np.sqrt(var + noise)
+        else:
+            continue
+        bands[label] = TorqueBand(label, center.reshape(-1, n_joints), half.reshape(-1, n_joints), est.kind)
+    return bands
+
+
+def validate_study(cfg: StudyConfig, model: RobotModel, data: StudyData,
+                   estimates: dict[tuple[str, str], Estimate]) -> dict:
+    out: dict = {}
+    if data.excitation is not None:
+        out["resimulation"] = [resimulate(cfg, model, data, f"{lab} / {rn}", est.center)
+                               for (lab, rn), est in estimates.items()]
+    if data.validation is not None:
+        from boundid.studies.runner import inverse_dynamic_rows
+
+        reg = inverse_dynamic_rows(model, data.validation, cfg.preprocessing)
+        ests = {lab: e for (lab, rn), e in estimates.items() if rn == "inverse_dynamic"}
+        out["validation_regression"] = reg
+        out["torque_bands"] = torque_bands(model, reg.W, model.n_joints, ests, reg.joint)
+    return out
