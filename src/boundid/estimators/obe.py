@@ -24,7 +24,6 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from scipy.linalg import solve_triangular
 
 from boundid._validation import as_bounds, as_float_array, as_regression, as_spd, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
@@ -198,7 +197,7 @@ class OBE:
         if self.form == "standard":
             S = self.sigma * self._P
         else:
-            Xi = solve_triangular(self._X, np.eye(self.p))
+            Xi = K.upper_inverse(self._X)
             S = self.sigma * (Xi @ Xi.T)
         return 0.5 * (S + S.T)
 
