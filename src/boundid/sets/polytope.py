@@ -268,6 +268,11 @@ class Polytope:
         if not np.isfinite(cons.gamma):
             return InfeasibleDataError(
                 "the prior (box and/or halfspaces) is empty on its own; check its bounds.")
+        if not cons.empty:
+            return InfeasibleDataError(
+                f"the feasible set is empty to solver accuracy: gamma* = {cons.gamma:.10g} is 1 within "
+                f"rounding, so the data sit exactly at the edge of consistency ({len(cons.active)} rows "
+                f"active, first: {cons.active[:10].tolist()}). Enlarge e_max slightly or remove outliers.")
         return InfeasibleDataError(
             f"the data contradict the error bounds: the feasible set is empty. The smallest uniform "
             f"inflation of the bounds that makes the data consistent is gamma* = {cons.gamma:.6g} (> 1). "
