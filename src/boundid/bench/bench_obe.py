@@ -20,8 +20,10 @@ of the (p+1) x (p+1) stacked matrix per update), run on the last `n_ref` rows st
 compiled run's state there, and scaled to a per-sample rate. `ratio` = compiled / numpy rate.
 
 Goals at p = 14: selective >= 4 M samples/s for both forms and >= 20x the numpy loop;
-every-sample factorized >= 1.5 M updates/s. (Timings depend on the load of the machine: the
-two cores are shared.)
+every-sample factorized >= 1.5 M updates/s. Rates are wall-clock (`compiled_M_per_s`, best of 3,
+including input checks and building the Estimate); the machine's two cores are shared, so
+`compiled_cpu_M_per_s` (process CPU time) is given too and `goal_met` says which of the two
+meets the goal ("wall", "cpu only" or "no").
 """
 
 
@@ -97,23 +99,23 @@ def run(quick: bool = False) -> pd.DataFrame:
             for selective in (True, False):
                 kw = {"shape0": 100.0, "form": form, "selective": selective, "record_every": N}
                 OBE(p, **kw).fit(W[:10], y[:10], e[:10])  # compile / load the cache
-                best = np.inf
+                wall = cpu = np.inf
                 for _ in range(3):
                     obe = OBE(p, **kw)
-                    t0 = time.perf_counter()
+                    t0, c0 = time.perf_counter(), time.process_time()
                     est = obe.fit(W, y, e)
-                    best = min(best, time.perf_counter() - t0)
+                    wall = min(wall, time.perf_counter() - t0)
+                    cpu = min(cpu, time.process_time() - c0)
                 head = OBE(p, **kw)
                 head.fit(W[: N - n_ref], y[: N - n_ref], e[: N - n_ref])
                 t0 = time.perf_counter()
                 _numpy_loop(form, _state(head), W[N - n_ref:], y[N - n_ref:], e[N - n_ref:], selective)
-                t_ref = time.perf_counter() - t0
-                rate, rate_ref = N / best, n_ref / t_ref
+                wall_ref = time.perf_counter() - t0
                 rows.append({
                     "p": p, "form": form, "mode": "selective" if selective else "every sample", "N": N,
-                    "n_updates": est.info["n_updates"], "compiled_M_per_s": rate / 1e6,
-                    "numpy_M_per_s": rate_ref / 1e6, "ratio": rate / rate_ref,
-                    "contains_truth": est.contains(theta),
+                    "n_updates": est.info["n_updates"], "compiled_M_per_s": N / wall / 1e6,
+                    "compiled_cpu_M_per_s": N / max(cpu, 1e-9) / 1e6, "numpy_M_per_s": n_ref / wall_ref / 1e6,
+                    "ratio": (N / wall) / (n_ref / wall_ref), "contains_truth": est.contains(theta),
                 })
     df = pd.DataFrame(rows)
     goal = np.full(len(df), np.nan)
@@ -121,10 +123,13 @@ def run(quick: bool = False) -> pd.DataFrame:
     at14 = df["p"] == 14
     sel = at14 & (df["mode"] == "selective")
     goal[sel] = 4.0
-    met[sel] = np.where((df.loc[sel, "compiled_M_per_s"] >= 4.0) & (df.loc[sel, "ratio"] >= 20), "yes", "no")
     fac = at14 & (df["mode"] == "every sample") & (df["form"] == "factorized")
     goal[fac] = 1.5
-    met[fac] = np.where(df.loc[fac, "compiled_M_per_s"] >= 1.5, "yes", "no")
+    for rows_, g in ((sel, 4.0), (fac, 1.5)):
+        ok_ratio = df.loc[rows_, "ratio"] >= (20 if g == 4.0 else 0)
+        wall_ok = (df.loc[rows_, "compiled_M_per_s"] >= g) & ok_ratio
+        cpu_ok = (df.loc[rows_, "compiled_cpu_M_per_s"] >= g) & ok_ratio
+        met[rows_] = np.where(wall_ok, "wall", np.where(cpu_ok, "cpu only", "no"))
     df["goal_M_per_s"] = goal
     df["goal_met"] = met
     return df
