@@ -62,6 +62,8 @@ class OBE:
     criterion : "volume" | "trace" | "dasgupta-huang"
         What each step's weight minimises: the volume (Fogel-Huang), the trace of the shape
         matrix (sum of squared semi-axes), or sigma (Dasgupta-Huang, capped at ``alpha_max``).
+        Every rule sees the strip clipped to the ellipsoid's extent and normalised to a unit
+        half-width (sigma, and so the Dasgupta-Huang weight, depends on that normalisation).
     form : "standard" | "factorized"
         Information-matrix recursion, or square-root information (QR by Givens rotations).
     on_outlier : "skip" | "raise"
@@ -78,6 +80,15 @@ class OBE:
         Upper bound on the Dasgupta-Huang weight, in (0, 1).
     names : sequence of str, optional
         Parameter names for the Estimate.
+
+    Notes
+    -----
+    ``info`` of the returned Estimate: n_samples, n_updates (update steps computed), n_skipped
+    (strips with no information), n_outliers, time_s (compiled loops only), criterion, form,
+    selective, sigma; for the standard form also n_breakdowns (steps where rounding made
+    w^T M^-1 w <= 0: skipped; the form then raises SolverError when the Estimate is built).
+    The factorized form keeps sigma separately instead of normalising it to 1 (seed eq. (35)
+    divides [X, z] by sqrt(sigma)); the ellipsoid is the same.
     """
 
     def __init__(self, p: int, center0=None, shape0=1e6, *, criterion: str = "volume", form: str = "factorized",
