@@ -1,0 +1,216 @@
+"""Compiled single-sample H4 kernels: Newton forward model, joint-space inertia and bias torque.
+
+The closed-loop simulation evaluates the dynamics 4 x (sub-steps) times per 1 ms sample, one
+state at a time, where batched numpy costs milliseconds per call. These kernels repeat the
+formulas of :mod:`boundid.models.h4_kinematics` (numpy, batched, the reference) in scalar form;
+tests/test_h4_model.py checks them against it.
+
+Argument packs: geo = (P (4,3), V (4,3), W (4,3), side (4,), updown (4,), dims = [L, l, d, h]);
+theta (14,) = [Imot1..4, Mnac, Ibc, Fv1..4, Fs1..4]; struct = [m_link, m_rod, ripple_amp,
+ripple_periods] (kg, kg, N m, cycles per turn), all zero for the identification model.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+# status codes of forward_dynamics_batch / dynamics1
+OK, NO_CONVERGENCE = 0, 1
+
+
+@njit(cache=True)
+def _ik1(x, P, V, W, side, updown, dims, q):
+    """Closed-form IK of one pose into q; returns False if some chain is unreachable."""
+    L, l, d, h = dims[0], dims[1], dims[2], dims[3]
+    c, s = np.cos(x[3]), np.sin(x[3])
+    for i in range(4):
+        e0 = x[0] + side[i] * d * c - P[i, 0]
+        e1 = x[1] + side[i] * d * s + updown[i] * h - P[i, 1]
+        e2 = x[2] - P[i, 2]
+        k = (e0 * e0 + e1 * e1 + e2 * e2 + L * L - l * l) / (2.0 * L)
+        a = e0 * V[i, 0] + e1 * V[i, 1] + e2 * V[i, 2]
+        b = e0 * W[i, 0] + e1 * W[i, 1] + e2 * W[i, 2]
+        r = k / np.hypot(a, b)
+        if not abs(r) <= 1.0:
+            return False
+        q[i] = np.arctan2(b, a) - np.arccos(r)
+    return True
+
+
+@njit(cache=True)
+def _chains1(x, q, P, V, W, side, updown, dims):
+    """A-B (4,3), dB (4,3), d2B (4,3), de (3,) = d(cos th, sin th, 0)/dth, Jx (4,4), jq (4,)."""
+    L, d, h = dims[0], dims[2], dims[3]
+    c, s = np.cos(x[3]), np.sin(x[3])
+    AB = np.empty((4, 3))
+    dB = np.empty((4, 3))
+    d2B = np.empty((4, 3))
+    Jx = np.empty((4, 4))
+    jq = np.empty(4)
+    de = np.array([-s, c, 0.0])
+    for i in range(4):
+        cq, sq = np.cos(q[i]), np.sin(q[i])
+        A = np.array([x[0] + side[i] * d * c, x[1] + side[i] * d * s + updown[i] * h, x[2]])
+        for j in range(3):
+            B = P[i, j] + L * (cq * V[i, j] + sq * W[i, j])
+            AB[i, j] = A[j] - B
+            dB[i, j] = L * (-sq * V[i, j] + cq * W[i, j])
+            d2B[i, j] = -L * (cq * V[i, j] + sq * W[i, j])
+        Jx[i, 0], Jx[i, 1], Jx[i, 2] = AB[i, 0], AB[i, 1], AB[i, 2]
+        Jx[i, 3] = side[i] * d * (AB[i, 0] * de[0] + AB[i, 1] * de[1])
+        jq[i] = AB[i, 0] * dB[i, 0] + AB[i, 1] * dB[i, 1] + AB[i, 2] * dB[i, 2]
+    return AB, dB, d2B, de, Jx, jq
+
+
+@njit(cache=True)
+def _fk1(q, x0, P, V, W, side, updown, dims, tol, max_iter):
+    """Newton forward model (paper eq. 10) from x0; returns (x, converged)."""
+    x = x0.copy()
+    step = np.zeros(4)
+    qn = np.empty(4)
+    for _ in range(max_iter):
+        if not _ik1(x, P, V, W, side, updown, dims, qn):
+            step *= 0.5
+            x -= step
+            continue
+        r = q - qn
+        if np.max(np.abs(r)) <= tol:
+            return x, True
+        _, _, _, _, Jx, jq = _chains1(x, qn, P, V, W, side, updown, dims)
+        step = np.linalg.solve(Jx, jq * r)
+        x += step
+        if not np.all(np.isfinite(x)):
+            return x, False
+    return x, False
+
+
+@njit(cache=True)
+def dynamics1(q, qd, x0, P, V, W, side, updown, dims, theta, struct, g, width, tol, max_iter):
+    """Joint-space inertia M (4,4) and bias b (4,) with tau = M qdd + b at one state.
+
+    Model part (eq. 14): M = Imot + J^T Mx J, b = J^T Mx (Jdot qd - G) + Fv qd + Fs c(qd),
+    c = sign (width 0) or tanh(qd / width). Structural part (truth only): the motor-side arm's
+    weight, the forearms as uniform rods (line masses between elbow B_i and attachment A_i), and a
+    conservative cogging ripple -a sin(n q_i). Returns (M, b, x, converged).
+    """
+    x, ok = _fk1(q, x0, P, V, W, side, updown, dims, tol, max_iter)
+    M = np.zeros((4, 4))
+    b = np.zeros(4)
+    if not ok:
+        return M, b, x, False
+    AB, dB, d2B, de, Jx, jq = _chains1(x, q, P, V, W, side, updown, dims)
+    d = dims[2]
+    J = np.linalg.solve(Jx, np.diag(jq))
+    xd = J @ qd
+    # Jdot qd = Jx^-1 (Jq_dot qd - Jx_dot xd)
+    rhs = np.empty(4)
+    c, s = np.cos(x[3]), np.sin(x[3])
+    Ad = np.empty((4, 3))
+    Bd = np.empty((4, 3))
+    for i in range(4):
+        for j in range(3):
+            Ad[i, j] = xd[j] + side[i] * d * de[j] * xd[3]
+            Bd[i, j] = dB[i, j] * qd[i]
+        ABd = Ad[i] - Bd[i]
+        ddA_xd = side[i] * d * (-c * AB[i, 0] - s * AB[i, 1]) * xd[3] * xd[3]
+        jxd_xd = ABd[0] * Ad[i, 0] + ABd[1] * Ad[i, 1] + ABd[2] * Ad[i, 2] + ddA_xd
+        jqd_qd = (ABd[0] * dB[i, 0] + ABd[1] * dB[i, 1] + ABd[2] * dB[i, 2]) * qd[i] + (
+            AB[i, 0] * d2B[i, 0] + AB[i, 1] * d2B[i, 1] + AB[i, 2] * d2B[i, 2]) * qd[i] * qd[i]
+        rhs[i] = jqd_qd - jxd_xd
+    jdqd = np.linalg.solve(Jx, rhs)
+    mx = np.array([theta[4], theta[4], theta[4], theta[5]])
+    acc = jdqd.copy()
+    acc[2] += g
+    for r in range(4):
+        M[r, r] += theta[r]
+        fr = np.tanh(qd[r] / width) if width > 0 else np.sign(qd[r])
+        b[r] += theta[6 + r] * qd[r] + theta[10 + r] * fr
+        for k in range(4):
+            b[r] += J[k, r] * mx[k] * acc[k]
+            for cidx in range(4):
+                M[r, cidx] += J[k, r] * mx[k] * J[k, cidx]
+    m_link, m_rod, ripple, n_rip = struct[0], struct[1], struct[2], struct[3]
+    if m_link == 0.0 and m_rod == 0.0 and ripple == 0.0:
+        return M, b, x, True
+    for i in range(4):
+        # motor-side arm, centre of mass at mid-length: dU/dq_i = m_link g dz_B/dq_i / 2
+        b[i] += 0.5 * m_link * g * dB[i, 2]
+        b[i] -= ripple * np.sin(n_rip * q[i])
+        if m_rod == 0.0:
+            continue
+        # Ja = dA_i/dx J (3,4); Jb = dB_i e_i^T; cA, cB: velocity-product accelerations of A_i, B_i
+        Ja = np.empty((3, 4))
+        for j in range(3):
+            for k in range(4):
+                Ja[j, k] = J[j, k] + side[i] * d * de[j] * J[3, k]
+        cA = np.empty(3)
+        cB = np.empty(3)
+        ddA = np.array([-c, -s, 0.0])
+        for j in range(3):
+            cA[j] = jdqd[j] + side[i] * d * (de[j] * jdqd[3] + ddA[j] * xd[3] * xd[3])
+            cB[j] = d2B[i, j] * qd[i] * qd[i]
+        for r in range(4):
+            for cidx in range(4):
+                aa = Ja[0, r] * Ja[0, cidx] + Ja[1, r] * Ja[1, cidx] + Ja[2, r] * Ja[2, cidx]
+                M[r, cidx] += m_rod * aa / 3.0
+            ab = Ja[0, r] * dB[i, 0] + Ja[1, r] * dB[i, 1] + Ja[2, r] * dB[i, 2]
+            M[r, i] += m_rod * ab / 6.0
+            M[i, r] += m_rod * ab / 6.0
+            b[r] += m_rod * (Ja[0, r] * (cB[0] / 6 + cA[0] / 3) + Ja[1, r] * (cB[1] / 6 + cA[1] / 3)
+                             + Ja[2, r] * (cB[2] / 6 + cA[2] / 3) + 0.5 * g * Ja[2, r])
+        bb = dB[i, 0] ** 2 + dB[i, 1] ** 2 + dB[i, 2] ** 2
+        M[i, i] += m_rod * bb / 3.0
+        b[i] += m_rod * (dB[i, 0] * (cB[0] / 3 + cA[0] / 6) + dB[i, 1] * (cB[1] / 3 + cA[1] / 6)
+                         + dB[i, 2] * (cB[2] / 3 + cA[2] / 6) + 0.5 * g * dB[i, 2])
+    return M, b, x, True
+
+
+@njit(cache=True)
+def dynamics_batch(q, qd, x0, P, V, W, side, updown, dims, theta, struct, g, width, tol, max_iter):
+    """dynamics1 over N states: M (N,4,4), b (N,4), x (N,4), converged (N,)."""
+    n = q.shape[0]
+    Ms = np.empty((n, 4, 4))
+    bs = np.empty((n, 4))
+    xs = np.empty((n, 4))
+    ok = np.empty(n, np.bool_)
+    for k in range(n):
+        Ms[k], bs[k], xs[k], ok[k] = dynamics1(q[k], qd[k], x0[k], P, V, W, side, updown, dims, theta,
+                                               struct, g, width, tol, max_iter)
+    return Ms, bs, xs, ok
+
+
+@njit(cache=True)
+def rk4_zoh(q, qd, tau, x_hint, dt, substeps, P, V, W, side, updown, dims, theta, struct, g, width,
+            tol, max_iter):
+    """Advance (q, qd) by dt under the constant torque tau with ``substeps`` classical RK4 steps.
+
+    Returns (q, qd, x, converged), x the pose at the end (warm start for the next call).
+    """
+    hs = dt / substeps
+    x = x_hint.copy()
+    for _ in range(substeps):
+        M, b, x1, ok = dynamics1(q, qd, x, P, V, W, side, updown, dims, theta, struct, g, width, tol, max_iter)
+        if not ok:
+            return q, qd, x1, False
+        k1v = np.linalg.solve(M, tau - b)
+        k1q = qd
+        q2, qd2 = q + 0.5 * hs * k1q, qd + 0.5 * hs * k1v
+        M, b, x2, ok = dynamics1(q2, qd2, x1, P, V, W, side, updown, dims, theta, struct, g, width, tol, max_iter)
+        if not ok:
+            return q, qd, x2, False
+        k2v = np.linalg.solve(M, tau - b)
+        q3, qd3 = q + 0.5 * hs * qd2, qd + 0.5 * hs * k2v
+        M, b, x3, ok = dynamics1(q3, qd3, x2, P, V, W, side, updown, dims, theta, struct, g, width, tol, max_iter)
+        if not ok:
+            return q, qd, x3, False
+        k3v = np.linalg.solve(M, tau - b)
+        q4, qd4 = q + hs * qd3, qd + hs * k3v
+        M, b, x4, ok = dynamics1(q4, qd4, x3, P, V, W, side, updown, dims, theta, struct, g, width, tol, max_iter)
+        if not ok:
+            return q, qd, x4, False
+        k4v = np.linalg.solve(M, tau - b)
+        q = q + hs / 6.0 * (k1q + 2 * qd2 + 2 * qd3 + qd4)
+        qd = qd + hs / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v)
+        x = x4
+    return q, qd, x, True

@@ -1,0 +1,267 @@
+"""The H4 parallel robot's dynamic model, linear in 14 parameters (seed 000, eqs. 14, 18, 19).
+
+    Gamma = Imot qdd + J^T M (xdd - G) + Fv qd + Fs sign(qd),   xdd = J qdd + Jdot qd   (14), (19)
+    M = diag(Mnac, Mnac, Mnac, Ibc),  G = (0, 0, -g, 0)
+    theta = [Imot1..4, Mnac, Ibc, Fv1..4, Fs1..4]                                      (18)
+
+The joint state is the motor angles q (rad); the nacelle pose x = FK(q) is computed inside by the
+Newton forward model. Geometry, true and prior values: /work/shared/design/H4_MODEL.md (true =
+the paper's Table I ellipsoid centre, prior = its a-priori column; friction has no prior, NaN).
+
+Derived forms used by the regression models (K = kinetic, U = potential energy):
+
+    momentum   p = (Imot + J^T M J) qd = Imot qd + J^T M xd                       -> Ya
+    remainder  Y theta - dp/dt = -Jdot^T M xd - J^T M G + Fv qd + Fs sign(qd)       -> Yb
+               (d/dt(J^T M xd) = Jdot^T M xd + J^T M xdd)
+    energy     H = 1/2 sum Imot_i qd_i^2 + 1/2 Mnac |Dd|^2 + 1/2 Ibc thd^2 + Mnac g z   -> phi_H
+
+:class:`H4Truth` adds what the model neglects (the motor-side arms' weight, the forearms' mass,
+cogging ripple), so that simulated data carry bounded structural error, as a real robot's do.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from boundid.errors import InputError, UnreachablePoseError
+from boundid.models import _h4_kernels as kern
+from boundid.models.base import RobotModel, coulomb
+from boundid.models.h4_kinematics import H4Geometry, H4Kinematics
+
+PARAM_NAMES = ("Imot1", "Imot2", "Imot3", "Imot4", "Mnac", "Ibc",
+               "Fv1", "Fv2", "Fv3", "Fv4", "Fs1", "Fs2", "Fs3", "Fs4")
+PARAM_UNITS = ("kg m^2",) * 4 + ("kg", "kg m^2") + ("N m s/rad",) * 4 + ("N m",) * 4
+#: Table I, estimated ellipsoid centre (used as the simulation truth)
+THETA_TRUE = np.array([0.0199, 0.0133, 0.0189, 0.0250, 0.7914, 0.0005,
+                       0.3093, 0.2166, 0.1235, 0.0752, 0.8126, 0.9390, 0.5360, 0.9868])
+#: Table I, a-priori values (friction unknown)
+THETA_PRIOR = np.array([0.012, 0.012, 0.012, 0.012, 1.0, 0.0008] + [np.nan] * 8)
+
+
+@dataclass(frozen=True)
+class H4Structural:
+    """What the identification model of eq. (14) leaves out; simulated by :class:`H4Truth`.
+
+    link_mass : kg, mass of each motor-side arm (length L), centre of mass at mid-length. Its
+        inertia about the motor axis is exactly part of Imot; its weight is not in the model.
+    rod_mass : kg, mass of each forearm (elbow B_i to nacelle A_i), a uniform thin rod.
+    ripple_amplitude : N m, cogging torque a sin(n q_i) added to each motor's torque.
+    ripple_periods : n, cogging cycles per motor turn.
+    """
+
+    link_mass: float = 0.3
+    rod_mass: float = 0.1
+    ripple_amplitude: float = 0.05
+    ripple_periods: int = 24
+
+    def __post_init__(self):
+        vals = (self.link_mass, self.rod_mass, self.ripple_amplitude, self.ripple_periods)
+        if not all(np.isfinite(v) and v >= 0 for v in vals):
+            raise InputError(f"H4Structural values must be finite and >= 0, got {self}.")
+
+    def scaled(self, k: float) -> H4Structural:
+        """The same error sources with masses and ripple multiplied by k >= 0 (0 = none)."""
+        if not (np.isfinite(k) and k >= 0):
+            raise InputError(f"structural error scale must be finite and >= 0, got {k}.")
+        return replace(self, link_mass=k * self.link_mass, rod_mass=k * self.rod_mass,
+                       ripple_amplitude=k * self.ripple_amplitude)
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.link_mass, self.rod_mass, self.ripple_amplitude, float(self.ripple_periods)])
+
+
+NO_STRUCTURAL_ERROR = H4Structural(0.0, 0.0, 0.0, 0)
+
+
+class H4Robot(H4Kinematics, RobotModel):
+    """The 4-dof H4 parallel robot, 14-parameter identification model (eq. 14/18).
+
+    geometry : H4Geometry (default: the project's dimensions, see h4_kinematics)
+    g : gravity, m/s^2
+    theta_true : parameters used to simulate (default Table I centre)
+    fk_tol, fk_max_iter : Newton forward-model tolerance (rad) and iteration cap
+    """
+
+    name = "h4"
+    n_joints = 4
+    param_names = PARAM_NAMES
+    param_units = PARAM_UNITS
+    #: neglected effects simulated on top of eq. (14): none for the identification model
+    structural: H4Structural = NO_STRUCTURAL_ERROR
+
+    def __init__(self, geometry: H4Geometry | None = None, g: float = 9.81, theta_true=None,
+                 fk_tol: float = 1e-12, fk_max_iter: int = 30):
+        super().__init__(geometry)
+        if not (np.isfinite(g) and g >= 0):
+            raise InputError(f"gravity g must be finite and >= 0 m/s^2, got {g}.")
+        self.g = float(g)
+        self.theta_true = THETA_TRUE.copy()
+        if theta_true is not None:
+            self.theta_true = self._theta(theta_true).copy()
+        self.theta_prior = THETA_PRIOR.copy()
+        if not (fk_tol > 0 and int(fk_max_iter) >= 1):
+            raise InputError(f"fk_tol must be > 0 rad and fk_max_iter >= 1, got {fk_tol}, {fk_max_iter}.")
+        self.fk_tol, self.fk_max_iter = float(fk_tol), int(fk_max_iter)
+        geo = self.geometry
+        self._geo = (geo.P, geo.V, geo.W, np.asarray(geo.side, float), np.asarray(geo.updown, float),
+                     np.array([geo.L, geo.l, geo.d, geo.h]))
+
+    # -- kinematics of joint states ---------------------------------------------------------
+    def pose(self, q, x0=None) -> np.ndarray:
+        """Nacelle poses x (N, 4) for motor angles q (N, 4) (Newton forward model, eq. 10)."""
+        return self.forward_kinematics(q, x0, self.fk_tol, self.fk_max_iter)
+
+    def kinematic_state(self, q, qd, x0=None):
+        """(x, J, xd, Jdot) at joint states (q, qd): poses (N,4), J (N,4,4), xd = J qd (N,4), Jdot (N,4,4)."""
+        (q, qd), _ = self._states(q, qd, names=("q", "qd"))
+        ck = self.chains(self.pose(q, x0), q)
+        xd = np.einsum("nij,nj->ni", ck.J, qd)
+        return ck.x, ck.J, xd, self._jdot(ck, qd)
+
+    # -- regressors -------------------------------------------------------------------------
+    def regressor_from_jacobians(self, qd, qdd, J, jdot_qd) -> np.ndarray:
+        """Y (N, 4, 14) of eq. (14) given J (N,4,4) and Jdot qd (N,4) (e.g. Jdot by central differences)."""
+        (qd, qdd), _ = self._states(qd, qdd, names=("qd", "qdd"))
+        J, jdot_qd = np.asarray(J, float), np.asarray(jdot_qd, float)
+        if J.shape != (len(qd), 4, 4) or jdot_qd.shape != (len(qd), 4):
+            raise InputError(f"J must be ({len(qd)}, 4, 4) and jdot_qd ({len(qd)}, 4); got {J.shape}, "
+                             f"{jdot_qd.shape}.")
+        xdd = np.einsum("nij,nj->ni", J, qdd) + jdot_qd  # eq. (19)
+        N = len(qd)
+        Y = np.zeros((N, 4, 14))
+        r = np.arange(4)
+        Y[:, r, r] = qdd
+        acc = xdd[:, :3].copy()
+        acc[:, 2] += self.g  # xdd - G
+        Y[:, :, 4] = np.einsum("nki,nk->ni", J[:, :3, :], acc)
+        Y[:, :, 5] = J[:, 3, :] * xdd[:, 3, None]
+        Y[:, r, 6 + r] = qd
+        Y[:, r, 10 + r] = np.sign(qd)
+        return Y
+
+    def regressor(self, q, qd, qdd) -> np.ndarray:
+        (q, qd, qdd), single = self._states(q, qd, qdd)
+        _, J, _, Jd = self.kinematic_state(q, qd)
+        Y = self.regressor_from_jacobians(qd, qdd, J, np.einsum("nij,nj->ni", Jd, qd))
+        return Y[0] if single else Y
+
+    def momentum_regressor(self, q, qd) -> np.ndarray:
+        (q, qd), single = self._states(q, qd, names=("q", "qd"))
+        _, J, xd, _ = self.kinematic_state(q, qd)
+        Y = np.zeros((len(q), 4, 14))
+        r = np.arange(4)
+        Y[:, r, r] = qd
+        Y[:, :, 4] = np.einsum("nki,nk->ni", J[:, :3, :], xd[:, :3])
+        Y[:, :, 5] = J[:, 3, :] * xd[:, 3, None]
+        return Y[0] if single else Y
+
+    def remainder_regressor(self, q, qd) -> np.ndarray:
+        (q, qd), single = self._states(q, qd, names=("q", "qd"))
+        _, J, xd, Jd = self.kinematic_state(q, qd)
+        Y = np.zeros((len(q), 4, 14))
+        r = np.arange(4)
+        Y[:, :, 4] = -np.einsum("nki,nk->ni", Jd[:, :3, :], xd[:, :3]) + self.g * J[:, 2, :]
+        Y[:, :, 5] = -Jd[:, 3, :] * xd[:, 3, None]
+        Y[:, r, 6 + r] = qd
+        Y[:, r, 10 + r] = np.sign(qd)
+        return Y[0] if single else Y
+
+    def energy_regressor(self, q, qd) -> np.ndarray:
+        (q, qd), single = self._states(q, qd, names=("q", "qd"))
+        x, _, xd, _ = self.kinematic_state(q, qd)
+        phi = np.zeros((len(q), 14))
+        phi[:, :4] = 0.5 * qd**2
+        phi[:, 4] = 0.5 * np.sum(xd[:, :3] ** 2, axis=1) + self.g * x[:, 2]
+        phi[:, 5] = 0.5 * xd[:, 3] ** 2
+        return phi[0] if single else phi
+
+    def friction_power_regressor(self, qd) -> np.ndarray:
+        (qd,), single = self._states(qd, names=("qd",))
+        phi = np.zeros((len(qd), 14))
+        phi[:, 6:10] = qd**2
+        phi[:, 10:] = np.abs(qd)
+        return phi[0] if single else phi
+
+    # -- joint-space dynamics (compiled kernel, includes the structural terms of H4Truth) ---
+    def joint_dynamics(self, q, qd, theta=None, coulomb_width: float = 0.0, x0=None):
+        """M(q) (N,4,4) and bias b(q, qd) (N,4) with tau = M qdd + b, and the poses x (N,4)."""
+        (q, qd), _ = self._states(q, qd, names=("q", "qd"))
+        coulomb(np.zeros(1), coulomb_width)  # validates the width
+        theta = self._theta(theta)
+        x0 = np.broadcast_to(np.asarray(self.geometry.home if x0 is None else x0, float), q.shape)
+        M, b, x, ok = kern.dynamics_batch(q, qd, np.ascontiguousarray(x0), *self._geo, theta,
+                                          self.structural.as_array(), self.g, float(coulomb_width),
+                                          self.fk_tol, self.fk_max_iter)
+        if not ok.all():
+            n = int(np.argmin(ok))
+            raise UnreachablePoseError(
+                f"forward kinematics did not converge for q = {np.array2string(q[n], precision=4)} rad "
+                f"(sample {n}; {int((~ok).sum())} of {len(q)} samples): motor angles outside the reachable set."
+            )
+        return M, b, x
+
+    def mass_matrix(self, q, theta=None) -> np.ndarray:
+        """Imot + J^T M J (N, 4, 4) (plus the forearm rods' inertia for H4Truth)."""
+        (q,), single = self._states(q, names=("q",))
+        M = self.joint_dynamics(q, np.zeros_like(q), theta)[0]
+        return M[0] if single else M
+
+    def bias_torque(self, q, qd, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
+        """J^T M (Jdot qd - G) + Fv qd + Fs c(qd) (N, 4) (plus the structural terms for H4Truth)."""
+        (q, qd), single = self._states(q, qd, names=("q", "qd"))
+        b = self.joint_dynamics(q, qd, theta, coulomb_width)[1]
+        return b[0] if single else b
+
+    def forward_dynamics(self, q, qd, tau, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
+        (q, qd, tau), single = self._states(q, qd, tau, names=("q", "qd", "tau"))
+        M, b, _ = self.joint_dynamics(q, qd, theta, coulomb_width)
+        qdd = np.linalg.solve(M, (tau - b)[..., None])[..., 0]
+        return qdd[0] if single else qdd
+
+    def inverse_dynamics(self, q, qd, qdd, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
+        """tau = M qdd + b (N, 4); equals Y theta for this model when coulomb_width = 0."""
+        (q, qd, qdd), single = self._states(q, qd, qdd)
+        M, b, _ = self.joint_dynamics(q, qd, theta, coulomb_width)
+        tau = np.einsum("nij,nj->ni", M, qdd) + b
+        return tau[0] if single else tau
+
+    def step_kernel_args(self, theta=None) -> tuple:
+        """Arguments after (q, qd, tau, x_hint, dt, substeps) of ``_h4_kernels.rk4_zoh`` for this robot."""
+        return (*self._geo, self._theta(theta), self.structural.as_array(), self.g)
+
+
+class H4Truth(H4Robot):
+    """The H4 robot as simulated: the model of eq. (14) plus the neglected effects of ``structural``.
+
+    structural : H4Structural (default sizes) or a float k meaning ``H4Structural().scaled(k)``.
+    The regressors stay those of the identification model (what one identifies with); mass
+    matrix, bias, forward/inverse dynamics and energy include the structural terms.
+    """
+
+    name = "h4_truth"
+
+    def __init__(self, geometry: H4Geometry | None = None, structural: H4Structural | float = 1.0, **kw):
+        super().__init__(geometry, **kw)
+        if not isinstance(structural, H4Structural):
+            structural = H4Structural().scaled(float(structural))
+        self.structural = structural
+
+    def energy(self, q, qd, theta=None) -> np.ndarray:
+        """H (N,) of the simulated robot: model energy + arms' weight + forearm rods + cogging potential."""
+        (q, qd), single = self._states(q, qd, names=("q", "qd"))
+        H = super().energy(q, qd, theta)
+        s, geo = self.structural, self.geometry
+        x, J, xd, _ = self.kinematic_state(q, qd)
+        A, dA = self.attachments(x)
+        B, dB = self.elbows(q)
+        Ad = np.einsum("nijk,nk->nij", dA, xd)
+        Bd = dB * qd[..., None]
+        kin = s.rod_mass / 6.0 * np.sum(Ad * Ad + Ad * Bd + Bd * Bd, axis=(1, 2))
+        zc = geo.P[:, 2] + 0.5 * (B[..., 2] - geo.P[:, 2])  # arm centre of mass
+        pot = self.g * (s.link_mass * zc.sum(1) + 0.5 * s.rod_mass * (A[..., 2] + B[..., 2]).sum(1))
+        if s.ripple_amplitude > 0:
+            pot += s.ripple_amplitude / s.ripple_periods * np.cos(s.ripple_periods * q).sum(1)
+        H = H + kin + pot
+        return H[0] if single else H
