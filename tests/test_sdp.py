@@ -64,19 +64,21 @@ def test_volume_chain_and_containment(p, N, seed):
     assert set(outer.strips) == set(P.nonredundant())
 
 
-def test_inner_constraint_generation_equals_full_sdp():
+@pytest.mark.parametrize("seed,p,N,min_rounds", [(4, 3, 120, 1), (2, 2, 50, 2)])
+def test_inner_constraint_generation_equals_full_sdp(seed, p, N, min_rounds):
     """The constraint-generation inner ellipsoid equals a direct cvxpy solve with every strip
-    (second algorithm, unscaled but well conditioned here)."""
-    P = random_polytope(4, 3, 120)
+    (second algorithm, unscaled but well conditioned here); the second case needs a second
+    round of constraint generation (the seed sides alone are not enough)."""
+    P = random_polytope(seed, p, N)
     r = sdp.inner_ellipsoid(P)
-    B, x0 = cp.Variable((3, 3), PSD=True), cp.Variable(3)
+    B, x0 = cp.Variable((p, p), PSD=True), cp.Variable(p)
     Wn, c = P.W / P.e_max[:, None], P.y / P.e_max
     cons = [cp.norm(Wn @ B, 2, axis=1) + cp.abs(Wn @ x0 - c) <= 1]
     cp.Problem(cp.Maximize(cp.log_det(B)), cons).solve(solver=cp.CLARABEL)
     ref = Ellipsoid(x0.value, B.value @ B.value)
     assert r.ellipsoid.log_volume() == pytest.approx(ref.log_volume(), abs=1e-5)
     assert np.allclose(r.ellipsoid.center, ref.center, atol=1e-5 * np.abs(ref.center).max())
-    assert r.info["working_sides"] < 2 * 120
+    assert r.info["working_sides"] < 2 * N and r.info["rounds"] >= min_rounds
 
 
 def test_outer_p14_contains_lp_vertices_and_samples():
