@@ -15,10 +15,17 @@ import math
 import numpy as np
 from numba import njit
 
-# Clipped half-widths are floored at KAPPA times the ellipsoid's half-extent along w: a strip
-# that only grazes E would otherwise make M' singular. The floor only widens the clipped strip
-# (a superset of E ∩ strip), so the guarantee is kept.
+# Clipped half-widths are floored at KAPPA times the larger of the ellipsoid's half-extent along
+# w and the strip's half-width: a strip that only grazes E, or a feasible set with an empty
+# interior (errors exactly at opposite bounds), would otherwise make M' singular and, step after
+# step, shrink E to nothing. The floor only widens the clipped strip (a superset of E ∩ strip),
+# so the guarantee is kept.
 KAPPA = 1e-8
+# Outward rounding guard: every bound is widened by ROUND_GUARD (|y| + e), far below any
+# measurement accuracy, so that data consistent with the bounds only up to rounding (errors
+# exactly at the bounds, a feasible set with an empty interior) neither become outliers nor fall
+# a rounding error outside the ellipsoid.
+ROUND_GUARD = 1e-12
 
 CRITERIA = {"volume": 0, "trace": 1, "dasgupta-huang": 2}
 
@@ -146,7 +153,7 @@ def clip_strip(y, e, m, r):
     Returns (centre y', half-width gamma')."""
     lo = max(y - e, m - r)
     hi = min(y + e, m + r)
-    return 0.5 * (lo + hi), max(0.5 * (hi - lo), KAPPA * r)
+    return 0.5 * (lo + hi), max(0.5 * (hi - lo), KAPPA * max(r, e))
 
 
 @njit(cache=True)
@@ -176,8 +183,8 @@ def run_standard(P, c, state, W, Y, E, crit, selective, alpha_max, stop_on_outli
     processed = N
     countdown = record_every - k0 % record_every  # record after global samples (k + 1) % record_every == 0
     for i in range(N):
-        ei = E[i]
         yi = Y[i]
+        ei = E[i] + ROUND_GUARD * (abs(yi) + E[i])
         G = 0.0
         m = 0.0
         for a in range(n):
@@ -306,8 +313,8 @@ def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_
     processed = N
     countdown = record_every - k0 % record_every  # record after global samples (k + 1) % record_every == 0
     for i in range(N):
-        ei = E[i]
         yi = Y[i]
+        ei = E[i] + ROUND_GUARD * (abs(yi) + E[i])
         for a in range(n):  # v = X^-T w (forward substitution, row access)
             v[a] = W[i, a]
         for a in range(n):

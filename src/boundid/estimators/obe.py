@@ -9,7 +9,10 @@ makes the volume step the exact one-step optimum. Two numerically different impl
 the same recursion:
 
 * ``form="standard"``: centre c, sigma and M^-1 kept by Sherman-Morrison (seed 000 eq. (28)-(30));
-  cheap, but M^-1 can lose positive definiteness on ill-conditioned data.
+  cheap, but on ill-conditioned data M^-1 can lose positive definiteness (detected: SolverError)
+  or, after a step that narrows the ellipsoid by orders of magnitude (a feasible set with an
+  empty interior), accuracy (not detected; seen in stress tests with errors exactly at the
+  bounds). Use it to reproduce the paper's comparison, not for guarantees on degenerate data.
 * ``form="factorized"``: the square-root information form of Lesecq & Barraud (seed 000
   eq. (33)-(35), REFERENCES §2): M = X^T X with X upper triangular, z = X c, each update a QR
   of the appended row by Givens rotations. Stays positive definite.
