@@ -42,11 +42,11 @@ class Block:
         return r
 
     def violation(self, x: np.ndarray) -> np.ndarray:
-        """max(lo - a^T x, a^T x - up), scaled by 1 + |bound| (relative feasibility)."""
+        """max(lo - a^T x, a^T x - up), less a rounding allowance of 1e-13 |bound|."""
         r = self.activity(x)
         with np.errstate(invalid="ignore"):
-            v_lo = (self.lo - r) / (1.0 + np.abs(self.lo))
-            v_up = (r - self.up) / (1.0 + np.abs(self.up))
+            v_lo = self.lo - r - 1e-13 * np.abs(self.lo)
+            v_up = r - self.up - 1e-13 * np.abs(self.up)
         return np.fmax(np.nan_to_num(v_lo, nan=-np.inf, neginf=-np.inf),
                        np.nan_to_num(v_up, nan=-np.inf, neginf=-np.inf))
 
@@ -72,7 +72,8 @@ class WorkingSetLP:
         Rows put in the working set before the first solve (they must make it bounded for
         the objectives asked, or the solve reports "unbounded").
     tol : float
-        Relative violation below which a pool row counts as satisfied.
+        Violation (in the row's units; strips are normalised to half-width 1) below which a pool
+        row counts as satisfied.
     batch : int
         At most this many of the most violated rows are added per round.
     """
@@ -129,11 +130,12 @@ class WorkingSetLP:
             self.h.changeRowBounds(int(r), lo if np.isfinite(lo) else -_INF, up if np.isfinite(up) else _INF)
 
     def _worst(self, x: np.ndarray) -> list[tuple[int, np.ndarray]]:
-        """The ``batch`` most violated pool rows (above tol), per block."""
+        """The ``batch`` most violated pool rows (above tol) not yet in the working set, per block
+        (rows in it are HiGHS's to satisfy, to its own tolerance)."""
         cand = []
         for b, blk in enumerate(self.blocks):
             v = blk.violation(x)
-            hit = np.flatnonzero(v > self.tol)
+            hit = np.flatnonzero((v > self.tol) & ~self.in_ws[b])
             if hit.size:
                 cand.append((b, hit, v[hit]))
         if not cand:
