@@ -217,3 +217,15 @@ def test_bad_prior_and_high_dim_vertices_raise():
         Polytope.from_strips(W, np.zeros(2), 1.0, halfspaces=(np.ones((1, 3)), [1.0]))
     with pytest.raises(InputError, match="p <= 6"):
         Polytope.from_strips(np.eye(7), np.zeros(7), 1.0).vertices()
+
+
+def test_support_point_is_a_maximiser():
+    """support_point's vertex attains the support value; against the max over Qhull vertices."""
+    rng = np.random.default_rng(11)
+    W = rng.normal(size=(12, 3))
+    P = Polytope.from_strips(W, W @ np.ones(3), 1.0)
+    V = P.vertices()
+    for d in rng.normal(size=(5, 3)):
+        v, x = P.support_point(d)
+        assert v == pytest.approx(np.max(V @ d), rel=1e-9, abs=1e-9)
+        assert d @ x == pytest.approx(v, rel=1e-9, abs=1e-9) and P.contains(x, atol=1e-8)

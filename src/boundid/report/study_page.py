@@ -116,7 +116,7 @@ def _validation_section(page: Page, r: StudyResult) -> None:
         if ok:
             page.figure(F.trajectory_comparison(r.data.recording.t, r.data.recording.q, ok),
                         "Measured joint positions and the open-loop re-simulations (right: difference).",
-                        name="resimulation")
+                        name="resimulation_positions")
     if "torque_bands" in v and v["torque_bands"]:
         reg, bands = v["validation_regression"], v["torque_bands"]
         n = r.model.n_joints
@@ -214,6 +214,14 @@ def write_study_report(r: StudyResult, out_dir: str | Path) -> Path:
         _paper_section_h4(page, r)
     elif cfg.robot == "direct_drive":
         _paper_section_direct_drive(page, r)
+    if r.failures:
+        page.section("Estimators that failed",
+                     "Reported as they failed; no other answer is substituted. The standard-form OBE keeps "
+                     "M^-1 by rank-one downdates, which lose positive definiteness to rounding when a wide prior "
+                     "meets very informative rows: the reason seed 000 uses the factorized (square-root) form.")
+        page.table(pd.DataFrame([{"estimator": lab, "regression": rn, "failure": msg}
+                                 for (lab, rn), msg in r.failures.items()]).set_index("estimator"),
+                   "Failures.", name="failures")
     _convergence_sets(page, r)
     _validation_section(page, r)
     _exact_section(page, r)

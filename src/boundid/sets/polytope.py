@@ -344,6 +344,12 @@ class Polytope:
         d = self._direction(direction)
         return -self._minimize(self._theta_engine(), -d)[1]
 
+    def support_point(self, direction) -> tuple[float, np.ndarray]:
+        """(max over P of d^T theta, a maximising vertex) (one LP); for projections of P."""
+        d = self._direction(direction)
+        x, v = self._minimize(self._theta_engine(), -d)
+        return -v, x
+
     def extent(self, direction) -> tuple[float, float]:
         """(min, max) of d^T theta over P (two LPs)."""
         d = self._direction(direction)

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from boundid.errors import BoundidError, StudyError
+from boundid.errors import BoundidError, InfeasibleDataError, SolverError, StudyError
 from boundid.estimators import OBE, RLS, Estimate, KalmanEstimator, ols, wls
 from boundid.estimators.certify import validate
 from boundid.experiments import regression as reg_builders
@@ -188,13 +188,16 @@ def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, guarantee
 
 @dataclass
 class StudyResult:
-    """Everything a study run produced; ``table`` is the tidy results table."""
+    """Everything a study run produced; ``table`` is the tidy results table; ``failures`` holds
+    the estimators that failed (e.g. the standard-form OBE losing positive definiteness), with
+    the reason, for the report: a failure is shown, never replaced by another answer."""
 
     config: StudyConfig
     model: RobotModel
     data: StudyData
     regressions: dict[str, Regression]
     estimates: dict[tuple[str, str], Estimate]
+    failures: dict[tuple[str, str], str]
     exact: ExactResult | None
     validation: dict
     table: pd.DataFrame
@@ -239,11 +242,15 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
     timings["regressions"] = time.perf_counter() - t0
 
     estimates: dict[tuple[str, str], Estimate] = {}
+    failures: dict[tuple[str, str], str] = {}
     t0 = time.perf_counter()
     for ec in cfg.estimators:
         for regname in ec.regressions:
             with progress.stage(f"{cfg.name}: {ec.label} on {regname}"):
-                estimates[(ec.label, regname)] = run_estimator(ec, regressions[regname], model, cfg.prior)
+                try:
+                    estimates[(ec.label, regname)] = run_estimator(ec, regressions[regname], model, cfg.prior)
+                except (SolverError, InfeasibleDataError) as exc:
+                    failures[(ec.label, regname)] = f"{type(exc).__name__}: {exc}"
     timings["estimators"] = time.perf_counter() - t0
 
     exact = None
@@ -259,5 +266,5 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
     with progress.stage(f"{cfg.name}: validation"):
         validation = validate_study(cfg, model, data, estimates)
     timings["validation"] = time.perf_counter() - t0
-    return StudyResult(cfg, model, data, regressions, estimates, exact, validation,
+    return StudyResult(cfg, model, data, regressions, estimates, failures, exact, validation,
                        tidy_table(cfg, model, estimates, exact), timings)

@@ -1,0 +1,176 @@
+"""A study end to end, on short data: the runner, the report page and the command line.
+
+Independent references: the true parameters of the simulation (every guaranteed set must contain
+them when the data respect the bound), the exact LP bounds (every guaranteed set must contain the
+LP-bound vertices), and stdlib ``html.parser`` for the page.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import json
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from boundid.cli import main
+from boundid.experiments.recording import Recording, write_recording
+from boundid.report.study_page import write_study_report
+from boundid.studies.config import load_study
+from boundid.studies.runner import run_study
+
+SHORT = """
+regressions = ["filtered_dynamic", "supplied_energy", "filtered_power", "inverse_dynamic"]
+
+[study]
+name = "dd_short"
+title = "Direct-drive arm, 2 s"
+seed = 7
+
+[robot]
+model = "direct_drive"
+
+[experiment]
+source = "simulate"
+duration_s = 2.0
+sample_period_s = 0.0025
+
+[experiment.noise]
+encoder_counts_per_rev = 65536
+torque = { kind = "uniform", level = 0.5 }
+
+[preprocessing]
+lowpass_cutoff_hz = 10.0
+
+[prior]
+center = "zero"
+absolute_range = 100.0
+
+[[estimators]]
+method = "rls"
+regressions = ["filtered_dynamic", "supplied_energy", "filtered_power"]
+
+[[estimators]]
+method = "wls"
+regressions = ["inverse_dynamic", "filtered_dynamic"]
+
+[[estimators]]
+method = "obe"
+label = "OBE-factorized"
+form = "factorized"
+regressions = ["filtered_dynamic"]
+e_max = 6.0
+
+[exact]
+regression = "filtered_dynamic"
+e_max = 6.0
+sdp = ["inner"]
+projections = [["th1", "th2"]]
+"""
+
+
+@pytest.fixture(scope="module")
+def short_study(tmp_path_factory):
+    path = tmp_path_factory.mktemp("study") / "dd_short.toml"
+    path.write_text(SHORT)
+    cfg = load_study(path)
+    return cfg, run_study(cfg)
+
+
+def test_runner_tidy_table_and_guarantee(short_study):
+    """Every estimator x regression x parameter is a row; the guaranteed set holds the truth and
+    the exact LP-bound vertices whenever the data respect the bound at the truth."""
+    cfg, r = short_study
+    p = r.model.p
+    assert len(r.table) == p * (len(r.estimates) + 1)  # + the LP exact rows
+    assert set(r.table["kind"]) == {"statistical", "guaranteed", "exact"}
+    ex = r.exact
+    assert ex.consistent and ex.truth_violations == 0
+    obe = r.estimates[("OBE-factorized", "filtered_dynamic")]
+    assert obe.contains(r.model.theta_true)
+    cert = ex.certificates["OBE-factorized"]
+    assert cert.contains_polytope and np.all(cert.width_ratio >= 1 - 1e-9)
+    lp = r.table[r.table.estimator == "LP exact"]
+    assert np.all(lp.lo.to_numpy() <= r.model.theta_true + 1e-9)
+    assert np.all(lp.hi.to_numpy() >= r.model.theta_true - 1e-9)
+
+
+class _PageReader(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.images, self.tables, self.urls = [], 0, []
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "img":
+            self.images.append(a.get("src", ""))
+        if tag == "table":
+            self.tables += 1
+        for key in ("src", "href"):
+            if key in a and a[key] and a[key].split(":")[0] in ("http", "https"):
+                self.urls.append(a[key])
+
+
+def test_report_page_is_self_contained(short_study, tmp_path):
+    """The page parses, every image decodes as a PNG, no external URL, under 3 MB; files beside it."""
+    cfg, r = short_study
+    page = write_study_report(r, tmp_path / cfg.name)
+    html = page.read_text()
+    reader = _PageReader()
+    reader.feed(html)
+    assert reader.images and reader.tables >= 4 and not reader.urls
+    for src in reader.images:
+        assert src.startswith("data:image/png;base64,")
+        Image.open(io.BytesIO(base64.b64decode(src.split(",", 1)[1]))).verify()
+    assert page.stat().st_size < 3_000_000
+    for name in ("tab-table-ii", "tab-deviation", "fig-convergence", "fig-resimulation-positions", "fig-width-ratios"):
+        assert name in html
+    assert (page.parent / "results.csv").is_file() and (page.parent / "summary.md").is_file()
+    assert list((page.parent / "tables").glob("*.tex")) and list((page.parent / "figures").glob("*.svg"))
+
+
+def test_study_from_measured_csv(short_study, tmp_path):
+    """A study on a recording written by the simulator gives the same estimates as the simulation."""
+    cfg, r = short_study
+    rec = r.data.recording
+    csv = write_recording(Recording(rec.t, rec.q, rec.tau), tmp_path / "arm.csv")
+    text = SHORT.replace('source = "simulate"\nduration_s = 2.0\nsample_period_s = 0.0025',
+                         f'source = "measured"\n[experiment.measured]\nfile = "{csv.name}"\n'
+                         '[experiment.measured.columns]\ntime = "t"\nq = ["q1", "q2"]\ntau = ["tau1", "tau2"]')
+    text = text.replace("[experiment.noise]\nencoder_counts_per_rev = 65536\n"
+                        'torque = { kind = "uniform", level = 0.5 }\n', "")
+    path = tmp_path / "measured.toml"
+    path.write_text(text)
+    r2 = run_study(load_study(path))
+    for key, est in r.estimates.items():
+        np.testing.assert_allclose(r2.estimates[key].center, est.center, rtol=1e-9, atol=1e-12)
+
+
+def test_cli_run_and_errors(tmp_path, capsys):
+    """`boundid run` writes the page; a bad study file exits 2 with the key named."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text(SHORT.replace('model = "direct_drive"', 'model = "scara"'))
+    assert main(["run", str(bad), "--out", str(tmp_path), "--quiet"]) == 2
+    assert "robot.model" in capsys.readouterr().err
+
+
+def test_cli_certify(tmp_path, capsys):
+    """`boundid certify`: a ball that contains the box [-1, 1]^2 contains the polytope (exit 0);
+    a tiny one does not (exit 3). Reference: the polytope is the box itself (two strips each)."""
+    import pandas as pd
+
+    W = np.array([[1.0, 0.0], [0.0, 1.0]])
+    pd.DataFrame({"w1": W[:, 0], "w2": W[:, 1], "y": [0.0, 0.0], "e_max": [1.0, 1.0]}).to_csv(
+        tmp_path / "reg.csv", index=False)
+    (tmp_path / "big.json").write_text(json.dumps({"center": [0, 0], "shape": [[2.0, 0], [0, 2.0]]}))
+    (tmp_path / "small.json").write_text(json.dumps({"center": [0, 0], "shape": [[0.5, 0], [0, 0.5]]}))
+    args = ["certify", "--regression", str(tmp_path / "reg.csv"), "--no-sdp", "--json", "--ellipsoid"]
+    assert main([*args, str(tmp_path / "big.json")]) == 0
+    assert json.loads(capsys.readouterr().out)["contains polytope"] == "yes"
+    assert main([*args, str(tmp_path / "small.json")]) == 3
+    assert json.loads(capsys.readouterr().out)["vertices outside"] == 4
+    assert main([*args, str(Path(tmp_path / "missing.json"))]) == 2
