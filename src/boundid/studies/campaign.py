@@ -1,0 +1,299 @@
+"""Monte Carlo campaigns: many noise draws of a study, per scenario, run with Dask, resumable.
+
+Each replicate (scenario s, replicate r) re-draws the measurement noise with its own generator,
+``SeedSequence(study seed, spawn_key=(crc32(s), r))`` -- the child ``SeedSequence.spawn`` would
+give, keyed by the scenario's name so it does not depend on which scenarios run or in what order.
+It runs every estimator of the study in *campaign mode*: no SDP ellipsoids and no validation
+experiment (the exact LP bounds stay: they are the reference widths), and writes one tidy row per
+estimator x regression x parameter (the columns of :func:`boundid.studies.runner.tidy_table` plus
+``scenario, replicate, config_hash, time_s, replicate_time_s, bound_ratio, truth_error_ratio,
+failure``) to one Parquet file::
+
+    <out>/data/<scenario>__<config hash>__r<replicate>.parquet
+
+The file is written under a temporary name and moved into place with ``os.replace`` (atomic), so
+a replicate is either complete or absent. A campaign restarted after any interruption (Ctrl-C, a
+killed worker or process, a crash) skips the files already there: nothing is recomputed or
+duplicated. The config hash covers the scenario's whole configuration, so editing the study or a
+scenario starts fresh files instead of mixing old and new results.
+
+Execution: ``dask.distributed`` -- a ``LocalCluster`` of K single-threaded worker processes, or an
+existing cluster at ``scheduler`` ("tcp://host:port"); ``workers=0`` runs in this process (no
+cluster; for tests and debugging). Dask re-runs a task whose worker died on another worker.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import time
+import uuid
+import zlib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from boundid.errors import InfeasibleDataError, InputError, SolverError, StudyError
+from boundid.studies.config import StudyConfig
+from boundid.studies.data import acquire
+from boundid.studies.progress import QUIET, Progress
+from boundid.studies.registry import make_robot
+from boundid.studies.runner import build_regressions, exact_optima, run_estimator, tidy_table
+from boundid.studies.scenarios import Scenario
+
+DATA_DIR = "data"
+
+
+def campaign_config(cfg: StudyConfig, scenario: Scenario) -> StudyConfig:
+    """The study in campaign mode under ``scenario``: its experiment overridden, no SDP ellipsoids,
+    no validation experiment (``dataclasses.replace``; LP bounds kept)."""
+    cfg = scenario.apply(cfg)
+    return replace(cfg, exact=replace(cfg.exact, sdp=()),
+                   experiment=replace(cfg.experiment, validation_duration_s=0.0))
+
+
+def config_hash(cfg: StudyConfig) -> str:
+    """12 hex digits identifying everything a replicate's result depends on (not the file's path)."""
+    return hashlib.sha256(repr(replace(cfg, file=Path(Path(cfg.file).name))).encode()).hexdigest()[:12]
+
+
+def replicate_seed(seed: int, scenario: str, replicate: int) -> np.random.SeedSequence:
+    """The replicate's seed sequence: the child (crc32(scenario), replicate) of ``SeedSequence(seed)``."""
+    if replicate < 0:
+        raise InputError(f"replicate numbers are >= 0, got {replicate}.")
+    return np.random.SeedSequence(seed, spawn_key=(zlib.crc32(scenario.encode()), int(replicate)))
+
+
+def replicate_path(data_dir: Path, scenario: str, chash: str, replicate: int) -> Path:
+    return Path(data_dir) / f"{scenario}__{chash}__r{replicate:06d}.parquet"
+
+
+def replicate_rows(cfg: StudyConfig, scenario: Scenario, replicate: int) -> pd.DataFrame:
+    """Run one replicate in campaign mode and return its tidy rows (nothing written).
+
+    bound_ratio (guaranteed estimators): max_k |y_k - w_k^T theta_true| / e_max on the estimator's
+    own regression -- <= 1 means the errors respect the bound, so the set must contain the truth.
+    truth_error_ratio: the same on the exact optima's regression with its e_max.
+    Failed estimators (SolverError, InfeasibleDataError) get rows with NaN values and the reason.
+    """
+    t_start = time.perf_counter()
+    ccfg = campaign_config(cfg, scenario)
+    rng = np.random.default_rng(replicate_seed(cfg.seed, scenario.name, replicate))
+    model = make_robot(ccfg.robot, ccfg.robot_options)
+    data = acquire(ccfg, model, rng)
+    regressions = build_regressions(model, data.recording, ccfg.preprocessing, ccfg.regressions)
+    estimates, extra, failures = {}, {}, []
+    for ec in ccfg.estimators:
+        for regname in ec.regressions:
+            reg = regressions[regname]
+            try:
+                est = run_estimator(ec, reg, model, ccfg.prior)
+            except (SolverError, InfeasibleDataError) as exc:
+                failures.append((ec, regname, f"{type(exc).__name__}: {exc}"))
+                continue
+            estimates[(ec.label, regname)] = est
+            ratio = np.nan
+            if est.guaranteed and "e_max" in ec.options:
+                ratio = float(np.max(np.abs(reg.y - reg.W @ model.theta_true)) / ec.options["e_max"])
+            extra[(ec.label, regname)] = (float(est.info["time_s"]), ratio, None)
+    exact = None
+    if ccfg.exact.regression is not None:
+        t0 = time.perf_counter()
+        exact = exact_optima(ccfg, regressions[ccfg.exact.regression], model, {}, QUIET)
+        extra[("LP exact", ccfg.exact.regression)] = (time.perf_counter() - t0, np.nan, None)
+    table = tidy_table(ccfg, model, estimates, exact)
+    for ec, regname, reason in failures:
+        extra[(ec.label, regname)] = (np.nan, np.nan, reason)
+        table = pd.concat([table, pd.DataFrame({
+            "study": ccfg.name, "estimator": ec.label, "method": ec.method, "regression": regname,
+            "parameter": list(model.param_names), "unit": list(model.param_units), "center": np.nan, "lo": np.nan,
+            "hi": np.nan, "truth": model.theta_true, "prior": model.theta_prior, "kind": "failed", "level": np.nan})],
+            ignore_index=True)
+    keys = list(zip(table["estimator"], table["regression"], strict=True))
+    table["time_s"] = [extra[k][0] for k in keys]
+    table["bound_ratio"] = [extra[k][1] for k in keys]
+    table["failure"] = pd.Series([extra[k][2] for k in keys], dtype="string")
+    table["level"] = pd.to_numeric(table["level"], errors="coerce").astype(float)
+    table.insert(1, "scenario", scenario.name)
+    table.insert(2, "replicate", int(replicate))
+    table["config_hash"] = config_hash(ccfg)
+    table["truth_error_ratio"] = exact.truth_error_ratio if exact is not None else np.nan
+    table["replicate_time_s"] = time.perf_counter() - t_start
+    return table
+
+
+def run_replicate(cfg: StudyConfig, scenario: Scenario, replicate: int, data_dir: str | Path) -> str:
+    """Compute one replicate and move its Parquet file into place atomically; returns its path.
+
+    A file already there is kept as it is (a task re-run after a lost worker does not duplicate it).
+    """
+    data_dir = Path(data_dir)
+    path = replicate_path(data_dir, scenario.name, config_hash(campaign_config(cfg, scenario)), replicate)
+    if path.exists():
+        return str(path)
+    table = replicate_rows(cfg, scenario, replicate)
+    tmp = data_dir / f".{path.stem}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
+    try:
+        table.to_parquet(tmp, index=False)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return str(path)
+
+
+@dataclass
+class CampaignResult:
+    """table: every completed replicate of the requested scenarios (rows as in :func:`replicate_rows`);
+    computed / skipped: the (scenario, replicate) pairs run now / found already done;
+    elapsed_s: wall time of this call; workers: the number of Dask workers (0: in-process)."""
+
+    config: StudyConfig
+    scenarios: tuple[Scenario, ...]
+    replicates: int
+    out: Path
+    table: pd.DataFrame
+    computed: list[tuple[str, int]] = field(default_factory=list)
+    skipped: list[tuple[str, int]] = field(default_factory=list)
+    elapsed_s: float = 0.0
+    workers: int = 0
+
+
+def _pending(cfg: StudyConfig, scenarios, replicates: int, data_dir: Path):
+    todo, done = [], []
+    for sc in scenarios:
+        chash = config_hash(campaign_config(cfg, sc))
+        for r in range(replicates):
+            (done if replicate_path(data_dir, sc.name, chash, r).exists() else todo).append((sc, r))
+    return todo, done
+
+
+def load_results(cfg: StudyConfig, scenarios, replicates: int, out: str | Path) -> pd.DataFrame:
+    """The completed replicates r < ``replicates`` of ``scenarios`` under ``out`` (current configuration only)."""
+    data_dir = Path(out) / DATA_DIR
+    files = []
+    for sc in scenarios:
+        chash = config_hash(campaign_config(cfg, sc))
+        files += [p for r in range(replicates) if (p := replicate_path(data_dir, sc.name, chash, r)).exists()]
+    if not files:
+        return pd.DataFrame()
+    return pd.concat([pd.read_parquet(p) for p in files], ignore_index=True)
+
+
+def run_campaign(cfg: StudyConfig, replicates: int, scenarios: tuple[Scenario, ...], out: str | Path, *,
+                 workers: int = 1, scheduler: str | None = None, progress: Progress = QUIET) -> CampaignResult:
+    """Run the missing replicates 0..replicates-1 of each scenario and return all of them.
+
+    out : campaign folder (``reports/<study>/campaign``); results go to ``out/data/``
+    workers : LocalCluster worker processes (1 thread each); 0 runs in this process
+    scheduler : address of an existing Dask scheduler (then ``workers`` is ignored)
+    """
+    if replicates < 1:
+        raise InputError(f"replicates must be >= 1, got {replicates}.")
+    if workers < 0:
+        raise InputError(f"workers must be >= 0 (0: in this process), got {workers}.")
+    if not scenarios:
+        raise StudyError(f"{cfg.file}: no scenario to run.")
+    for sc in scenarios:
+        sc.apply(cfg)  # refuses measured data before anything starts
+    out = Path(out)
+    data_dir = out / DATA_DIR
+    data_dir.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    todo, done = _pending(cfg, scenarios, replicates, data_dir)
+    computed: list[tuple[str, int]] = []
+    n_workers = 0
+    with progress.stage(f"{cfg.name}: campaign, {len(todo)} replicates to run ({len(done)} done)"):
+        if todo and scheduler is None and workers == 0:
+            for sc, r in todo:
+                run_replicate(cfg, sc, r, data_dir)
+                computed.append((sc.name, r))
+        elif todo:
+            n_workers = _run_dask(cfg, todo, data_dir, workers, scheduler, computed)
+    table = load_results(cfg, scenarios, replicates, out)
+    return CampaignResult(cfg, tuple(scenarios), replicates, out, table, computed,
+                          [(sc.name, r) for sc, r in done], time.perf_counter() - t0, n_workers)
+
+
+def _run_dask(cfg, todo, data_dir: Path, workers: int, scheduler: str | None, computed: list) -> int:
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    if scheduler is not None:
+        client, cluster = Client(scheduler), None
+    else:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+        client = Client(cluster)
+    try:
+        cfg_future = client.scatter(cfg, broadcast=True)
+        futures = {client.submit(run_replicate, cfg_future, sc, r, str(data_dir.resolve()),
+                                 key=f"campaign-{cfg.name}-{sc.name}-{r}", pure=False): (sc.name, r)
+                   for sc, r in todo}
+        for fut in as_completed(futures):
+            fut.result()  # re-raises a replicate's error here
+            computed.append(futures[fut])
+        return len(client.scheduler_info(n_workers=-1)["workers"])
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+# ------------------------------------------------------------------------------ summary
+
+
+def _with_exact_width(table: pd.DataFrame) -> pd.DataFrame:
+    key = ["scenario", "replicate", "parameter"]
+    exact = table[table["kind"] == "exact"][key + ["lo", "hi"]]
+    exact = exact.assign(exact_width=exact["hi"] - exact["lo"]).drop(columns=["lo", "hi"])
+    return table.merge(exact, on=key, how="left")
+
+
+def summarize(table: pd.DataFrame) -> pd.DataFrame:
+    """Per scenario x estimator x regression: coverage of the truth, width over the exact width,
+    bias and RMSE, time per replicate.
+
+    coverage_pct : % of (replicate, parameter) intervals lo <= truth <= hi
+    coverage_bound_held_pct : the same over the replicates whose errors respect the estimator's
+        bound (bound_ratio <= 1; guaranteed sets only): must be 100
+    width_ratio_median : median over replicates and parameters of (hi - lo) / exact LP width
+    bias_rel_pct, rmse_rel_pct : mean over parameters of |mean(center - truth)| / |truth| and
+        sqrt(mean((center - truth)^2)) / |truth| (parameters with truth 0 left out), in %
+    time_s : mean estimator time per replicate [s]; failed : replicates where it failed
+    """
+    if table.empty:
+        raise InputError("no campaign results to summarise: run some replicates first.")
+    t = _with_exact_width(table)
+    t = t.assign(covered=(t["lo"] <= t["truth"]) & (t["truth"] <= t["hi"]), err=t["center"] - t["truth"],
+                 width_ratio=(t["hi"] - t["lo"]) / t["exact_width"])
+    rows = []
+    for (sc, lab, reg), g in t.groupby(["scenario", "estimator", "regression"], sort=False):
+        ok = g[g["kind"] != "failed"]
+        held = ok[ok["bound_ratio"] <= 1.0]
+        per = ok.groupby("parameter", sort=False).agg(bias=("err", "mean"), mse=("err", lambda e: np.mean(e ** 2)),
+                                                      truth=("truth", "first"))
+        nz = per[per["truth"] != 0]
+        kind = ok["kind"].iloc[0] if len(ok) else "failed"
+        rows.append({
+            "scenario": sc, "estimator": lab, "regression": reg, "kind": kind,
+            "level": ok["level"].iloc[0] if len(ok) else np.nan,
+            "replicates": g["replicate"].nunique(), "failed": g.loc[g["kind"] == "failed", "replicate"].nunique(),
+            "coverage_pct": 100.0 * ok["covered"].mean() if len(ok) else np.nan,
+            "bound_held_replicates": held["replicate"].nunique() if kind == "guaranteed" else np.nan,
+            "coverage_bound_held_pct": 100.0 * held["covered"].mean() if kind == "guaranteed" and len(held) else np.nan,
+            "width_ratio_median": float(np.nanmedian(ok["width_ratio"])) if ok["width_ratio"].notna().any() else np.nan,
+            "bias_rel_pct": 100.0 * float(np.mean(np.abs(nz["bias"]) / np.abs(nz["truth"]))) if len(nz) else np.nan,
+            "rmse_rel_pct": 100.0 * float(np.mean(np.sqrt(nz["mse"]) / np.abs(nz["truth"]))) if len(nz) else np.nan,
+            "time_s": float(ok.drop_duplicates("replicate")["time_s"].mean()) if len(ok) else np.nan,
+        })
+    return pd.DataFrame(rows)
+
+
+def parameter_errors(table: pd.DataFrame) -> pd.DataFrame:
+    """Per scenario x estimator x regression x parameter: truth, bias = mean(center - truth) and
+    RMSE = sqrt(mean((center - truth)^2)) over the replicates, in the parameter's unit."""
+    ok = table[table["kind"] != "failed"].assign(err=lambda d: d["center"] - d["truth"])
+    return (ok.groupby(["scenario", "estimator", "regression", "parameter", "unit"], sort=False)
+            .agg(truth=("truth", "first"), bias=("err", "mean"),
+                 rmse=("err", lambda e: float(np.sqrt(np.mean(e ** 2)))), replicates=("replicate", "nunique"))
+            .reset_index())

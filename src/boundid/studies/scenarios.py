@@ -1,0 +1,112 @@
+"""Monte Carlo scenarios: named overrides of a study's simulated experiment.
+
+A study file lists them in a ``[campaign]`` table (read here with ``tomllib`` from ``cfg.file``;
+``boundid.studies.config`` only has to accept the ``campaign`` key)::
+
+    [campaign]
+    replicates = 100                      # default of --replicates
+
+    [[campaign.scenarios]]
+    name = "gaussian_low"                 # letters, digits, '_' and '-' (it names the result files)
+    description = "Gaussian torque noise, sigma = 0.5 N m"
+    torque = { kind = "gaussian", level = 0.5 }   # kind, level [N m], outlier_rate, outlier_size [N m]
+    encoder_counts_per_rev = 4096         # coarser encoder (optional)
+    structural_error = 0.05               # relative structural model error (optional)
+
+A key left out keeps the study's value; ``torque`` replaces the study's torque noise as a whole
+(its own keys default to TorqueNoise's). Without a ``[campaign]`` table, the campaign runs one
+scenario, ``study``: the experiment as the study file describes it.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from boundid.errors import StudyError
+from boundid.experiments.measurement import TorqueNoise
+from boundid.studies.config import StudyConfig
+from boundid.studies.schema import Section
+
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]*$")
+NOISE_KINDS = ("none", "gaussian", "uniform", "bounded_outliers")
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One scenario: None keeps the study's value."""
+
+    name: str
+    description: str = ""
+    torque_noise: TorqueNoise | None = None
+    encoder_counts_per_rev: int | None = None
+    structural_error: float | None = None
+
+    def apply(self, cfg: StudyConfig) -> StudyConfig:
+        """The study with this scenario's experiment (``dataclasses.replace``; nothing else changes)."""
+        if cfg.experiment.source != "simulate":
+            raise StudyError(f"{cfg.file}: a Monte Carlo campaign re-draws the noise of a simulated experiment; "
+                             "this study reads measured data (experiment.source = 'measured').")
+        changes = {k: v for k, v in (("torque_noise", self.torque_noise),
+                                     ("encoder_counts_per_rev", self.encoder_counts_per_rev),
+                                     ("structural_error", self.structural_error)) if v is not None}
+        return replace(cfg, experiment=replace(cfg.experiment, **changes))
+
+
+@dataclass(frozen=True)
+class CampaignSpec:
+    """The ``[campaign]`` table: default replicate count and the scenarios, in file order."""
+
+    replicates: int
+    scenarios: tuple[Scenario, ...]
+
+    def select(self, names: list[str] | None) -> tuple[Scenario, ...]:
+        """The named scenarios (all when ``names`` is None or empty); StudyError for an unknown name."""
+        if not names:
+            return self.scenarios
+        known = {s.name: s for s in self.scenarios}
+        for n in names:
+            if n not in known:
+                raise StudyError(f"no scenario {n!r} in the study's [campaign]; it has {', '.join(known)}.")
+        return tuple(known[n] for n in dict.fromkeys(names))
+
+
+def _scenario(sec: Section) -> Scenario:
+    name = sec.str("name")
+    if not _NAME.match(name):
+        raise sec.error("name", f"must be letters, digits, '_' or '-' (it names files), got {name!r}.")
+    noise = None
+    if sec.has("torque"):
+        tn = sec.section("torque")
+        noise = TorqueNoise(kind=tn.str("kind", "none", choices=NOISE_KINDS), level=tn.float("level", 0.0, lo=0.0),
+                            outlier_rate=tn.float("outlier_rate", 0.0, lo=0.0, hi=0.5),
+                            outlier_size=tn.float("outlier_size", 0.0, lo=0.0))
+        tn.check_unknown()
+    sc = Scenario(name=name, description=sec.str("description", ""), torque_noise=noise,
+                  encoder_counts_per_rev=sec.int("encoder_counts_per_rev", None, lo=2),
+                  structural_error=sec.float("structural_error", None, lo=0.0))
+    sec.check_unknown()
+    return sc
+
+
+def load_campaign(cfg: StudyConfig) -> CampaignSpec:
+    """Parse the ``[campaign]`` table of ``cfg.file``; StudyError naming file and key on bad input."""
+    path = Path(cfg.file)
+    try:
+        data = tomllib.loads(path.read_text())
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise StudyError(f"{path}: cannot read the study file for its [campaign]: {exc}") from None
+    if "campaign" not in data:
+        return CampaignSpec(replicates=10, scenarios=(Scenario("study", "the experiment of the study file"),))
+    sec = Section(data, "", path).section("campaign")
+    replicates = sec.int("replicates", 10, lo=1)
+    scenarios = tuple(_scenario(s) for s in sec.sections("scenarios"))
+    if not scenarios:
+        raise sec.error("scenarios", "no [[campaign.scenarios]] table: name at least one scenario.")
+    names = [s.name for s in scenarios]
+    if len(set(names)) != len(names):
+        raise sec.error("scenarios", f"names must be unique, got {names}.")
+    sec.check_unknown()
+    return CampaignSpec(replicates, scenarios)
