@@ -103,6 +103,8 @@ class H4ExperimentConfig:
     structural : scale of H4Structural (0 = none); bandwidth_hz : position loop (PID from the
     a-priori inertia at home); cutoff_hz : None = cutoff_from_bandwidth(bandwidth_hz);
     optimize_evals : Powell evaluations for the trajectory (0 = random coefficients only).
+    fast_period, slow_fraction : s, period of the fast (inertia) segment and the share of the
+        duration given to the slow (friction) one (see ``exciting_trajectory``).
     """
 
     duration_s: float = 20.0
@@ -121,6 +123,8 @@ class H4ExperimentConfig:
     edge_s: float = 0.2
     substeps: int = 4
     optimize_evals: int = 0
+    fast_period: float = 2.0
+    slow_fraction: float = 0.4
 
 
 @dataclass
@@ -143,26 +147,36 @@ def measure(truth, trajectory: SegmentedTrajectory, duration: float, controller:
     return run, run.tau + noise
 
 
-def run_h4_experiment(seed: int = 0, config: H4ExperimentConfig | None = None, robot=None) -> H4Experiment:
-    """Simulate the paper's experiment; all randomness from numpy.random.default_rng(seed).
+@dataclass
+class H4Recording:
+    """One measured closed-loop experiment: the run (true states, encoder readings), the measured
+    torque G_T V_T + noise (N, 4) [N m], and the trajectory it tracked."""
+
+    run: ClosedLoopRun
+    tau_meas: np.ndarray
+    trajectory: SegmentedTrajectory
+
+
+def simulate_h4_experiment(rng: np.random.Generator, config: H4ExperimentConfig | None = None,
+                           robot=None) -> tuple[dict[str, H4Recording], dict]:
+    """Simulate the paper's two closed-loop experiments ("identification", "validation").
 
     robot : the identification model (default H4Robot()); the simulated truth is H4Truth with the
-    same geometry and ``config.structural``. Two different exciting trajectories are drawn: one
-    for identification (config.duration_s) and one for cross-validation.
+    same geometry and ``config.structural``. Two different exciting trajectories are drawn from
+    ``rng``. Returns the recordings and facts (condition numbers, saturation, cut-off).
     """
     from boundid.models.h4 import H4Robot, H4Truth
 
     cfg = config or H4ExperimentConfig()
     robot = robot or H4Robot()
     truth = H4Truth(robot.geometry, cfg.structural, g=robot.g, theta_true=robot.theta_true)
-    rng = np.random.default_rng(seed)
     qh = robot.inverse_kinematics(np.asarray(robot.geometry.home))
     prior = np.where(np.isnan(robot.theta_prior), 0.0, robot.theta_prior)
     controller = JointPID.from_bandwidth(np.diag(robot.mass_matrix(qh, prior)), cfg.bandwidth_hz)
-    cutoff = cfg.cutoff_hz or cutoff_from_bandwidth(cfg.bandwidth_hz)
-    trajs, runs, regs, info = {}, {}, {}, {"seed": seed, "cutoff_hz": cutoff}
+    recs, info = {}, {"cutoff_hz": cfg.cutoff_hz or cutoff_from_bandwidth(cfg.bandwidth_hz)}
     for name, duration in (("identification", cfg.duration_s), ("validation", cfg.validation_duration_s)):
-        traj = exciting_trajectory(robot, rng, duration=duration)
+        traj = exciting_trajectory(robot, rng, duration=duration, slow_fraction=cfg.slow_fraction,
+                                   fast_period=cfg.fast_period)
         if cfg.optimize_evals > 0:
             traj, opt = optimize_trajectory(robot, traj, max_evals=cfg.optimize_evals)
             info[f"{name}_optimisation"] = opt
@@ -170,8 +184,22 @@ def run_h4_experiment(seed: int = 0, config: H4ExperimentConfig | None = None, r
         info[f"{name}_condition"] = condition_number(observation_matrix(robot, traj), scaled=False)
         info[f"{name}_condition_scaled"] = condition_number(observation_matrix(robot, traj), scaled=True)
         run, tau_meas = measure(truth, traj, duration, controller, cfg, rng)
-        regs[name] = identification_regression(robot, run.t, run.q_meas, tau_meas, cutoff, cfg.decimation,
-                                               jdot=cfg.jdot, edge_s=cfg.edge_s)
-        trajs[name], runs[name] = traj, run
+        recs[name] = H4Recording(run, tau_meas, traj)
         info[f"{name}_saturated_fraction"] = float(run.saturated.mean())
-    return H4Experiment(regs["identification"], regs["validation"], runs, trajs, info)
+    return recs, info
+
+
+def run_h4_experiment(seed: int = 0, config: H4ExperimentConfig | None = None, robot=None) -> H4Experiment:
+    """Simulate the paper's experiment and build its two regressions; all randomness from
+    numpy.random.default_rng(seed) (see :func:`simulate_h4_experiment`)."""
+    from boundid.models.h4 import H4Robot
+
+    cfg = config or H4ExperimentConfig()
+    robot = robot or H4Robot()
+    recs, info = simulate_h4_experiment(np.random.default_rng(seed), cfg, robot)
+    info["seed"] = seed
+    regs = {name: identification_regression(robot, r.run.t, r.run.q_meas, r.tau_meas, info["cutoff_hz"],
+                                            cfg.decimation, jdot=cfg.jdot, edge_s=cfg.edge_s)
+            for name, r in recs.items()}
+    return H4Experiment(regs["identification"], regs["validation"], {k: r.run for k, r in recs.items()},
+                        {k: r.trajectory for k, r in recs.items()}, info)

@@ -56,12 +56,15 @@ class PreprocessingConfig:
     lowpass_cutoff_hz : zero-phase Butterworth cut-off before the central differences that give
         qd and qdd for the inverse dynamic model (None: no filter)
     decimation : parallel filtering and decimation factor of the inverse dynamic rows
+    min_speed_rad_s : drop inverse-dynamic rows of a joint moving slower than this (there the
+        model's sign(qd) is unreliable: at rest and at velocity reversals); 0 keeps every row
     lambda_rad_s, discretisation : the filters lambda/(s + lambda), lambda s/(s + lambda)
     """
 
     pairing: str = "zoh_midpoint"
     lowpass_cutoff_hz: float | None = None
     decimation: int = 1
+    min_speed_rad_s: float = 0.0
     lambda_rad_s: float = 50.0
     discretisation: str = "tustin"  # | "paper"
 
@@ -213,6 +216,7 @@ def load_study(path: str | Path) -> StudyConfig:
         pairing=pp.str("pairing", "zoh_midpoint", choices=("zoh_midpoint", "paper")),
         lowpass_cutoff_hz=pp.float("lowpass_cutoff_hz", None, lo=0.0, strict_lo=True),
         decimation=pp.int("decimation", 1, lo=1),
+        min_speed_rad_s=pp.float("min_speed_rad_s", 0.0, lo=0.0),
         lambda_rad_s=pp.float("lambda_rad_s", 50.0, lo=0.0, strict_lo=True),
         discretisation=pp.str("discretisation", "tustin", choices=("tustin", "paper")),
     )

@@ -13,9 +13,9 @@ from boundid.estimators import OBE, RLS, Estimate, KalmanEstimator, ols, wls
 from boundid.estimators.certify import validate
 from boundid.experiments import regression as reg_builders
 from boundid.experiments.filters import align
-from boundid.experiments.preprocessing import decimate, differentiate
+from boundid.experiments.h4_pipeline import identification_regression
 from boundid.experiments.recording import Recording
-from boundid.experiments.regression import Regression, stack_joint_rows
+from boundid.experiments.regression import Regression
 from boundid.models import RobotModel
 from boundid.sets import Polytope, SDPResult, inner_ellipsoid, john_outer, outer_ellipsoid
 from boundid.studies.config import EstimatorConfig, PreprocessingConfig, PriorConfig, StudyConfig
@@ -27,31 +27,15 @@ from boundid.studies.registry import make_robot
 
 
 def inverse_dynamic_rows(model: RobotModel, rec: Recording, pp: PreprocessingConfig) -> Regression:
-    """IDIM rows: zero-phase low-pass and central differences for qd, qdd; then torques and
-    regressor columns low-pass filtered and decimated together ("parallel filtering").
-
-    Zero-phase filters and differences are unreliable near the ends of a record (the filter
-    starts from assumed edge values): the first and last ``3 / f_c`` seconds are dropped, f_c the
-    lowest cut-off used (Butterworth or decimation filter).
-    """
+    """IDIM rows by the H4 paper's pipeline (:func:`identification_regression`): zero-phase
+    low-pass and central differences for qd, qdd; torques and regressor columns low-pass filtered
+    and decimated together ("parallel filtering"); the first and last ``3 / f_c`` seconds, where the
+    zero-phase filters start from assumed edge values, dropped."""
     h = rec.h
-    q, qd, qdd = differentiate(rec.q, h, pp.lowpass_cutoff_hz)
-    Y = model.regressor(q, qd, qdd)
-    tau, t = rec.tau, rec.t
-    cutoffs = [pp.lowpass_cutoff_hz] if pp.lowpass_cutoff_hz else []
-    if pp.decimation > 1:
-        N, n, p = Y.shape
-        Y = decimate(Y.reshape(N, n * p), pp.decimation, fs_hz=1.0 / h).reshape(-1, n, p)
-        tau = decimate(tau, pp.decimation, fs_hz=1.0 / h)
-        t = t[:: pp.decimation]
-        cutoffs.append(0.8 * 0.5 / (h * pp.decimation))  # decimate()'s default cut-off
-    edge_s = 3.0 / min(cutoffs) if cutoffs else 2 * h
-    keep = (t >= t[0] + edge_s) & (t <= t[-1] - edge_s)
-    if keep.sum() < 2:
-        raise StudyError(f"the record ({t[-1] - t[0]:.3g} s) is too short for its filters: {edge_s:.3g} s are "
-                         "dropped at each end. Record longer or raise lowpass_cutoff_hz.")
-    info = {"lowpass_cutoff_hz": pp.lowpass_cutoff_hz, "decimation": pp.decimation, "h": h, "edge_s": edge_s}
-    return stack_joint_rows(Y[keep], tau[keep], t[keep], "inverse_dynamic", model.param_names, info=info)
+    fc = pp.lowpass_cutoff_hz or 0.8 * 0.5 / (h * pp.decimation)
+    return identification_regression(model, rec.t, rec.q, rec.tau, pp.lowpass_cutoff_hz, pp.decimation,
+                                     decimation_cutoff_hz=fc, jdot="analytic", edge_s=3.0 / fc,
+                                     min_speed=pp.min_speed_rad_s)
 
 
 def build_regressions(model: RobotModel, rec: Recording, pp: PreprocessingConfig,

@@ -63,6 +63,17 @@ def resimulate(cfg: StudyConfig, model: RobotModel, data: StudyData, label: str,
     return Resimulation(label, traj.q, rms)
 
 
+def _noise_variance(est: Estimate, joint: np.ndarray) -> np.ndarray | float:
+    """Per-row measurement noise variance of a statistical estimate: WLS's per-joint sigma_j,
+    OLS/RLS's residual sigma, or the Kalman filter's R."""
+    sig = est.info.get("sigma_groups")
+    if isinstance(sig, dict):
+        return np.asarray([sig[j] for j in joint]) ** 2
+    if "sigma" in est.info:
+        return float(est.info["sigma"]) ** 2
+    return float(est.info.get("R", 0.0))
+
+
 def torque_bands(model: RobotModel, W: np.ndarray, n_joints: int, estimates: dict[str, Estimate],
                  joint: np.ndarray) -> dict[str, TorqueBand]:
     """Eq. (37) bounds for guaranteed sets, 95 % prediction bands for statistical ones."""
@@ -74,9 +85,7 @@ def torque_bands(model: RobotModel, W: np.ndarray, n_joints: int, estimates: dic
             half = np.linalg.norm(W @ L, axis=1)  # sqrt(w^T S w), eq. (37)
         elif "cov" in est.info:
             var = np.einsum("ij,jk,ik->i", W, np.asarray(est.info["cov"]), W)
-            sig = est.info.get("sigma_groups")
-            noise = np.asarray([sig[j] for j in joint]) ** 2 if isinstance(sig, dict) else 0.0
-            half = 1.96 * np.sqrt(var + noise)
+            half = 1.96 * np.sqrt(var + _noise_variance(est, joint))
         else:
             continue
         bands[label] = TorqueBand(label, center.reshape(-1, n_joints), half.reshape(-1, n_joints), est.kind)

@@ -1,0 +1,38 @@
+"""The closed-loop experiment of seed 000 (H4): PI control at 1 kHz on the "truth" robot."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from boundid.errors import StudyError
+from boundid.experiments.h4_pipeline import H4ExperimentConfig, simulate_h4_experiment
+from boundid.experiments.recording import Recording
+from boundid.models import RobotModel
+from boundid.studies.config import StudyConfig
+from boundid.studies.data import StudyData
+
+
+def closed_loop_data(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:
+    """Identification and validation recordings (encoder angles, measured torques) of the H4."""
+    exp = cfg.experiment
+    if model.name != "h4":
+        raise StudyError(f"{cfg.file}: experiment.control = 'closed_loop' is the H4 experiment of seed 000; "
+                         f"use 'open_loop' for {model.name}.")
+    if exp.validation_duration_s <= 0:
+        raise StudyError(f"{cfg.file}: experiment.validation_duration_s must be > 0 for the cross-validation "
+                         "trajectory of the closed-loop experiment.")
+    h4cfg = H4ExperimentConfig(
+        duration_s=exp.duration_s, validation_duration_s=exp.validation_duration_s,
+        fs_hz=1.0 / exp.sample_period_s, counts_per_rev=exp.encoder_counts_per_rev or 65536,
+        coulomb_width=exp.coulomb_width_rad_s, structural=exp.structural_error, torque_noise=exp.torque_noise,
+        **{k: v for k, v in exp.options.items() if k in ("amplifier_gain", "torque_limit", "bandwidth_hz",
+                                                         "substeps", "optimize_evals",
+                                                         "fast_period", "slow_fraction")},
+    )
+    recs, info = simulate_h4_experiment(rng, h4cfg, model)
+
+    def recording(name: str) -> Recording:
+        r = recs[name]
+        return Recording(t=r.run.t, q=r.run.q_meas, tau=r.tau_meas)
+
+    return StudyData(recording=recording("identification"), validation=recording("validation"), info=info)
