@@ -91,6 +91,9 @@ encoder_counts_per_rev = 4096
 [[campaign.scenarios]]
 name = "outliers"
 torque = { kind = "bounded_outliers", level = 0.5, outlier_rate = 0.001, outlier_size = 20.0 }
+
+[[campaign.scenarios]]
+name = "structural"
 structural_error = 0.05
 """
 
@@ -124,19 +127,23 @@ def test_scenarios_parse_and_override_the_experiment(tmp_path, cfg):
     path.write_text(TINY + CAMPAIGN)
     spec = load_campaign(replace(cfg, file=path))
     assert spec.replicates == 4
-    assert [s.name for s in spec.scenarios] == ["gaussian_high", "coarse_encoder", "outliers"]
+    assert [s.name for s in spec.scenarios] == ["gaussian_high", "coarse_encoder", "outliers", "structural"]
     high = spec.scenarios[0].apply(cfg).experiment
     assert high.torque_noise == TorqueNoise("gaussian", 3.0) and high.encoder_counts_per_rev == 65536
     coarse = spec.scenarios[1].apply(cfg).experiment
     assert coarse.encoder_counts_per_rev == 4096 and coarse.torque_noise == cfg.experiment.torque_noise
     out = spec.scenarios[2].apply(cfg).experiment
-    assert out.torque_noise.outlier_rate == 0.001 and out.structural_error == 0.05
+    assert out.torque_noise.outlier_rate == 0.001 and out.torque_noise.kind == "bounded_outliers"
+    closed = replace(cfg, experiment=replace(cfg.experiment, control="closed_loop"))
+    assert spec.scenarios[3].apply(closed).experiment.structural_error == 0.05
+    with pytest.raises(StudyError, match="open-loop experiment simulates the identification model"):
+        spec.scenarios[3].apply(cfg)  # the open-loop simulation has no structural error to add
     assert [s.name for s in spec.select(["outliers"])] == ["outliers"]
     with pytest.raises(StudyError, match="no scenario 'nope'"):
         spec.select(["nope"])
     bad = tmp_path / "bad.toml"
     bad.write_text(TINY + CAMPAIGN.replace("structural_error", "structural_eror"))
-    with pytest.raises(StudyError, match=r"bad\.toml: campaign\.scenarios\[2\]\.structural_eror: unknown key"):
+    with pytest.raises(StudyError, match=r"bad\.toml: campaign\.scenarios\[3\]\.structural_eror: unknown key"):
         load_campaign(replace(cfg, file=bad))
     # campaign mode drops the SDPs and keeps the LP bounds; the hash follows the scenario
     cc = campaign_config(cfg, spec.scenarios[0])
@@ -255,6 +262,46 @@ def test_killed_campaign_restarts_where_it_stopped(tmp_path, cfg):
     done = {replicate_path(data, "bounded", chash, r).name for _, r in res.skipped}
     assert done == set(before)
     assert len(res.computed) + len(res.skipped) == n and not set(res.computed) & set(res.skipped)
+    after = _files(data)
+    assert len(after) == n and all(after[k] == v for k, v in before.items())
+    assert sorted(res.table.drop_duplicates(["replicate"])["replicate"]) == list(range(n))
+    assert not res.table.duplicated(["replicate", "estimator", "regression", "parameter"]).any()
+
+
+@pytest.mark.slow  # ~15 s: cluster start, a worker restart
+def test_killed_dask_worker_is_replaced_and_campaign_completes(tmp_path, cfg):
+    """On an existing cluster (the --scheduler path), SIGKILL the only worker process mid-campaign:
+    the nanny restarts it, Dask re-runs the lost task, and the campaign ends with every replicate
+    exactly once; the files written before the kill are untouched."""
+    import threading
+
+    from dask.distributed import Client, LocalCluster
+
+    out, n = tmp_path / "worker_killed", 6
+    data = out / "data"
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        (pid,) = client.run(os.getpid).values()
+        box: dict = {}
+
+        def campaign():
+            try:
+                box["result"] = run_campaign(cfg, n, (BOUNDED,), out, scheduler=cluster.scheduler_address)
+            except Exception as exc:  # noqa: BLE001 -- re-raised in the test thread below
+                box["error"] = exc
+
+        thread = threading.Thread(target=campaign)
+        thread.start()
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and thread.is_alive() and not list(data.glob("*.parquet")):
+            time.sleep(0.02)
+        before = _files(data)
+        os.kill(pid, signal.SIGKILL)
+        thread.join(timeout=180)
+        assert not thread.is_alive() and "error" not in box, box.get("error")
+        (new_pid,) = client.run(os.getpid).values()
+    res = box["result"]
+    assert new_pid != pid and 1 <= len(before) < n
     after = _files(data)
     assert len(after) == n and all(after[k] == v for k, v in before.items())
     assert sorted(res.table.drop_duplicates(["replicate"])["replicate"]) == list(range(n))

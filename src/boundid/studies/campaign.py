@@ -225,8 +225,9 @@ def _run_dask(cfg, todo, data_dir: Path, workers: int, scheduler: str | None, co
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
         client = Client(cluster)
     try:
-        cfg_future = client.scatter(cfg, broadcast=True)
-        futures = {client.submit(run_replicate, cfg_future, sc, r, str(data_dir.resolve()),
+        # cfg goes with each task (a few kB), not scattered: scattered data dies with its worker,
+        # and the tasks that need it would then be cancelled instead of re-run elsewhere
+        futures = {client.submit(run_replicate, cfg, sc, r, str(data_dir.resolve()),
                                  key=f"campaign-{cfg.name}-{sc.name}-{r}", pure=False): (sc.name, r)
                    for sc, r in todo}
         for fut in as_completed(futures):

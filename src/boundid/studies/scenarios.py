@@ -49,6 +49,10 @@ class Scenario:
         if cfg.experiment.source != "simulate":
             raise StudyError(f"{cfg.file}: a Monte Carlo campaign re-draws the noise of a simulated experiment; "
                              "this study reads measured data (experiment.source = 'measured').")
+        if self.structural_error and cfg.experiment.control == "open_loop":
+            raise StudyError(f"{cfg.file}: scenario {self.name!r} sets structural_error, but the open-loop experiment "
+                             "simulates the identification model itself (no structural error to add); use it with "
+                             "experiment.control = 'closed_loop' (the H4 robot).")
         changes = {k: v for k, v in (("torque_noise", self.torque_noise),
                                      ("encoder_counts_per_rev", self.encoder_counts_per_rev),
                                      ("structural_error", self.structural_error)) if v is not None}
