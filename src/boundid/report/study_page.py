@@ -132,7 +132,7 @@ def _validation_section(page: Page, r: StudyResult) -> None:
         page.table(pd.DataFrame.from_dict(rows, orient="index").rename_axis("estimate"),
                    "Measured validation torques outside each band.", float_format="{:.3g}", name="crossval")
         main = next((lab for lab, b in bands.items() if b.kind == "guaranteed"), next(iter(bands)))
-        extra = {lab: (b.center - b.half_width, b.center + b.half_width) for lab, b in bands.items()
+        extra = {f"{lab} 95 %": (b.center, b.half_width) for lab, b in bands.items()
                  if lab != main and b.kind == "statistical"}
         page.figure(F.torque_bounds(t, measured, bands[main].center, bands[main].half_width,
                                     band_label=f"{main} bounds", extra_bands=extra),
