@@ -75,7 +75,8 @@ for k in range(N):
     steps.append({"strip": k + 1, "event": event, "lambda": lam, "ln area before": E_prev.log_volume(),
                   "ln area OBE": est.ellipsoid.log_volume(), "ln area SDP optimum": sdp,
                   "truth inside": bool(est.contains(theta_true)), "E_prev": E_prev, "E": frozen(est.ellipsoid)})
-table = pd.DataFrame([{k: v for k, v in s.items() if k not in ("E_prev", "E")} for s in steps]).set_index("strip")
+table = pd.DataFrame([{k: v for k, v in s.items() if k not in ("E_prev", "E")} for s in steps])
+table = table.set_index(table["strip"].astype(str)).drop(columns="strip")   # text labels for the page tables
 print(table)
 
 # %% [markdown]
@@ -131,7 +132,7 @@ for c, est in fits.items():
                     "ln-area excess over min outer": 2 * cert.excess_outer,
                     "contains P": cert.contains_polytope, "updates": est.info["n_updates"],
                     "skipped": est.info["n_skipped"]}
-crit = pd.DataFrame(crit_rows).T.rename_axis("criterion")
+crit = pd.DataFrame.from_dict(crit_rows, orient="index").rename_axis("criterion")
 fig_c = Figure(figsize=(8.4, 3.4), layout="constrained")
 ax1, ax2 = fig_c.subplots(1, 2)
 ax1.add_patch(PolygonPatch(ordered(P.vertices()), closed=True, fc="#dddddd", ec="k", lw=1, label="exact polygon"))

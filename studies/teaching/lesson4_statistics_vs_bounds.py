@@ -98,7 +98,7 @@ for kind in SCENARIOS:
         obe = OBE.from_prior(prior, prior_half).fit(W, y, E_MAX)
         hits += [ols(W, y).contains(theta_true), obe.contains(theta_true)]
     rows[kind]["OLS coverage"], rows[kind]["OBE coverage"] = hits / REPEATS
-table = pd.DataFrame(rows).T.rename_axis("scenario")
+table = pd.DataFrame.from_dict(rows, orient="index").rename_axis("scenario")
 print(table)
 
 # %%

@@ -49,11 +49,11 @@ for label, build in BUILDERS.items():
     fits[label] = RLS(len(theta_true), record_every=10, names=arm.param_names).fit(R.W, R.y)
 dev = deviation_percent(fits, theta_true, arm.param_names)
 print(dev)
-summary = pd.DataFrame({
+summary = pd.DataFrame.from_dict({
     label: {"rows": R.n_rows, "unit of y": R.unit, "cond(W)": np.linalg.cond(R.W),
-            "mean |dev| th1..th5 [%]": float(np.mean(np.abs(dev[label].to_numpy()[:5]))),
-            "mean |dev| friction [%]": float(np.mean(np.abs(dev[label].to_numpy()[5:])))}
-    for label, R in regs.items()}).T.rename_axis("model")
+            "mean abs dev th1..th5 [%]": float(np.mean(np.abs(dev[label].to_numpy()[:5]))),
+            "mean abs dev friction [%]": float(np.mean(np.abs(dev[label].to_numpy()[5:])))}
+    for label, R in regs.items()}, orient="index").rename_axis("model")
 print(summary)
 
 # Why the energy model converges badly: its error is integrated torque noise, a random walk.
