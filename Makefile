@@ -23,13 +23,17 @@ test-all: $(STAMP)
 	$(PYTEST)
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests
+	$(BIN)/ruff check src tests studies/teaching
 
 bench: $(STAMP)
 	$(BIN)/python -m boundid.bench --out reports/benchmarks
 
 report: $(STAMP)
 	$(BIN)/boundid report
+
+# the lessons in studies/teaching, one self-contained handout each in reports/teaching/
+teach: $(STAMP)
+	$(BIN)/boundid teach
 
 # opens every reports/**/index.html in headless Chromium; fails on a broken image or a script error
 test-browser: $(STAMP)

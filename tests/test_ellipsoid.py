@@ -51,3 +51,11 @@ def test_information_and_projection():
 def test_bad_input_is_named(center, shape, match):
     with pytest.raises(InputError, match=match):
         Ellipsoid(center, shape)
+
+
+def test_ellipsoid_owns_its_centre():
+    """An Ellipsoid must not change when the caller's array does (estimators keep updating theirs)."""
+    c = np.array([1.0, 2.0])
+    E = Ellipsoid(c, np.eye(2))
+    c += 10.0
+    np.testing.assert_array_equal(E.center, [1.0, 2.0])

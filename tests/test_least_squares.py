@@ -99,8 +99,8 @@ def _coverage(rng, runs, noise, estimator):
 def test_ols_coverage_gaussian(record_property):
     """Reference: the nominal 95 % level (Student t intervals, chi2 ellipsoid), 400 Gaussian runs."""
     cov_i, cov_e = _coverage(np.random.default_rng(3), 400, lambda r, n: 0.2 * r.normal(size=n), ols)
-    record_property("interval_coverage", cov_i)
-    record_property("ellipsoid_coverage", cov_e)
+    record_property("interval_coverage", float(cov_i))
+    record_property("ellipsoid_coverage", float(cov_e))
     assert abs(cov_i - 0.95) <= 0.03
     assert abs(cov_e - 0.95) <= 0.03
 
@@ -120,8 +120,8 @@ def test_wls_coverage_heteroscedastic_gaussian():
 def test_ols_coverage_uniform_bounded_noise(record_property):
     """Reference: the nominal 95 % level; bounded uniform noise is not Gaussian, the CLT keeps it close."""
     cov_i, cov_e = _coverage(np.random.default_rng(5), 400, lambda r, n: r.uniform(-0.3, 0.3, size=n), ols)
-    record_property("interval_coverage_uniform", cov_i)
-    record_property("ellipsoid_coverage_uniform", cov_e)
+    record_property("interval_coverage_uniform", float(cov_i))
+    record_property("ellipsoid_coverage_uniform", float(cov_e))
     print(f"uniform noise: interval coverage {cov_i:.3f}, ellipsoid coverage {cov_e:.3f}")
     assert abs(cov_i - 0.95) <= 0.03
     assert abs(cov_e - 0.95) <= 0.03

@@ -397,3 +397,14 @@ def test_browser_check_passes_good_page_and_catches_broken_ones(study_page, tmp_
     assert any("script error" in p for p in browser.check_page(script, exe))
     assert browser.main([str(path.parent)]) == 0  # the command over a folder: one good page
     assert browser.main([str(tmp_path)]) == 2  # no index.html there: nothing to check is an error
+
+
+def test_format_frame_keeps_text_columns_with_an_integer_index():
+    """Text columns survive format_frame whatever the index type (they used to become NaN)."""
+    import pandas as pd
+
+    from boundid.report.tables import format_frame
+
+    df = pd.DataFrame({"kind": ["a", "b"], "x": [1.0, 2.0]}, index=[0, 1])
+    out = format_frame(df)
+    assert out["kind"].tolist() == ["a", "b"]

@@ -155,7 +155,7 @@ def test_coverage_gaussian_and_uniform(record_property):
         hits["rls_unif"] += np.sum((u.intervals[0] <= theta) & (theta <= u.intervals[1]))
     cov = {k: v / (runs * (1 if k.endswith("ell") else 3)) for k, v in hits.items()}
     for k, v in cov.items():
-        record_property(f"coverage_{k}", v)
+        record_property(f"coverage_{k}", float(v))
     print("coverage:", {k: round(v, 3) for k, v in cov.items()})
     for v in cov.values():
         assert abs(v - 0.95) <= 0.03

@@ -65,6 +65,14 @@ def cmd_bench(args) -> int:
     return bench_main(["--out", str(Path(args.out) / "benchmarks")] + (["--quick"] if args.quick else []))
 
 
+def cmd_teach(args) -> int:
+    from boundid.teaching import run_lessons
+
+    for page in run_lessons(args.lessons, Path(args.out) / "teaching", fast=args.fast, only=args.only or None):
+        print(page)
+    return 0
+
+
 def cmd_list(args) -> int:
     from boundid.studies.registry import ESTIMATORS, REGRESSIONS, ROBOTS
 
@@ -115,6 +123,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=str(DEFAULT_REPORTS))
     p.add_argument("--quick", action="store_true")
     p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("teach", help="run the lessons in studies/teaching and write reports/teaching/ handouts")
+    p.add_argument("--lessons", default="studies/teaching", help="folder holding lesson*.py scripts")
+    p.add_argument("--out", default=str(DEFAULT_REPORTS), help="reports folder (handouts go to <out>/teaching/)")
+    p.add_argument("--only", nargs="*", help="run only lessons whose file name contains one of these")
+    p.add_argument("--fast", action="store_true", help="small settings (BOUNDID_TEACH_FAST=1), for checks")
+    p.set_defaults(func=cmd_teach)
 
     p = sub.add_parser("list", help="robots, estimators and regression models")
     p.set_defaults(func=cmd_list)

@@ -153,7 +153,8 @@ def format_frame(df: pd.DataFrame, float_format: FloatFormat = "{:.4g}") -> pd.D
             out[label] = [f"[{fmt(a)}, {fmt(b)}]" for a, b in zip(df[col], df[hi], strict=True)]
         elif col not in his:
             s = df[col]
-            out[str(col)] = [fmt(v) for v in s.astype(float)] if pd.api.types.is_float_dtype(s) else s.astype(str)
+            floats = pd.api.types.is_float_dtype(s)
+            out[str(col)] = [fmt(v) for v in s.astype(float)] if floats else s.astype(str).tolist()
     res = pd.DataFrame(out, index=df.index.astype(str))
     res.index.name = df.index.name
     return res

@@ -31,7 +31,7 @@ class Ellipsoid:
     __slots__ = ("center", "shape", "_chol")
 
     def __init__(self, center, shape):
-        self.center = as_vector(center, "center")
+        self.center = as_vector(center, "center").copy()  # own the data: callers keep mutating theirs
         self.shape = as_spd(shape, "shape", self.center.shape[0])
         self._chol = np.linalg.cholesky(self.shape)  # S = L L^T
 
