@@ -279,7 +279,7 @@ def test_killed_dask_worker_is_replaced_and_campaign_completes(tmp_path, cfg):
 
     out, n = tmp_path / "worker_killed", 6
     data = out / "data"
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster, \
             Client(cluster) as client:
         (pid,) = client.run(os.getpid).values()
         box: dict = {}

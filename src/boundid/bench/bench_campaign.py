@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import tempfile
 import time
 from dataclasses import replace
@@ -26,19 +27,22 @@ experiment SHORTENED to 5 s (2 s with --quick) instead of the study's 10 s.
 - `ratio` = replicates per minute of the case / that of the 1-worker LocalCluster (the reference).
 - Goal: 2 workers >= 1.6x one worker on an idle 2-core machine; the campaign's overhead over the
   in-process loop (Dask start-up, scatter, Parquet files) stays under 20 % of the run.
-- The machine's 2 cores are shared with other jobs: the 2-worker speed-up is bounded by the
-  free cores at the time of the run.
+- `mean_replicate_s`: one replicate's own wall time inside its worker (slower when the cores are
+  shared); `load_avg_1min`: the machine's load when the case started. The 2 cores are shared with
+  other jobs: the 2-worker speed-up is bounded by the cores free at the time of the run.
 """
 
 
 def _case(cfg, replicates: int, workers: int, label: str) -> dict:
+    load = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
         res = run_campaign(cfg, replicates, (Scenario("study"),), Path(tmp) / "campaign", workers=workers)
         wall = time.perf_counter() - t0
         per = res.table.drop_duplicates(["scenario", "replicate"])["replicate_time_s"]
     return {"case": label, "workers": workers, "replicates": replicates, "wall_s": wall,
-            "replicates_per_min": 60.0 * replicates / wall, "mean_replicate_s": float(per.mean())}
+            "replicates_per_min": 60.0 * replicates / wall, "mean_replicate_s": float(per.mean()),
+            "load_avg_1min": load}
 
 
 def run(quick: bool = False) -> pd.DataFrame:

@@ -19,6 +19,7 @@ from boundid.report.html import Page
 from boundid.studies.campaign import CampaignResult, parameter_errors, summarize
 
 KEYS = ["scenario", "estimator", "regression"]
+_HATCHES = (None, "//", "..", "xx")  # one per regression model; the colour is the estimator's
 
 
 def _keyed(df: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
@@ -29,10 +30,11 @@ def _keyed(df: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
 
 def _grouped_bars(summary: pd.DataFrame, column: str, ylabel: str, *, log: bool = False,
                   reference: float | None = None, reference_label: str = "") -> Figure:
-    """One group of bars per scenario, one bar per estimator x regression (colour per estimator)."""
+    """One group of bars per scenario, one bar per estimator x regression (colour: estimator, hatch: regression)."""
     scen = list(dict.fromkeys(summary["scenario"]))
     labels = list(dict.fromkeys(summary["estimator"] + " / " + summary["regression"]))
-    fig = Figure(figsize=(max(4.5, 1.1 * len(scen) * max(1, len(labels)) ** 0.5 + 2), 3.4), dpi=DPI,
+    regs = list(dict.fromkeys(summary["regression"]))
+    fig = Figure(figsize=(min(11.0, max(4.5, 2.0 + 0.22 * len(scen) * len(labels))), 3.6), dpi=DPI,
                  layout="constrained")
     ax = fig.subplots()
     step = 0.8 / max(len(labels), 1)
@@ -41,7 +43,7 @@ def _grouped_bars(summary: pd.DataFrame, column: str, ylabel: str, *, log: bool 
         rows = summary[(summary["estimator"] + " / " + summary["regression"]) == lab].set_index("scenario")
         vals = rows[column].reindex(scen).to_numpy(dtype=float)
         ax.bar(x - 0.4 + (k + 0.5) * step, vals, width=step, color=color_for(lab.split(" / ")[0]), label=lab,
-               edgecolor="white", linewidth=0.5, hatch="//" if k % 2 else None)
+               edgecolor="white", linewidth=0.5, hatch=_HATCHES[regs.index(lab.split(" / ")[1]) % len(_HATCHES)])
     if reference is not None:
         ax.axhline(reference, color="black", lw=1.0, ls="--", label=reference_label)
     if log:

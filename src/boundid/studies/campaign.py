@@ -14,12 +14,14 @@ failure``) to one Parquet file::
 The file is written under a temporary name and moved into place with ``os.replace`` (atomic), so
 a replicate is either complete or absent. A campaign restarted after any interruption (Ctrl-C, a
 killed worker or process, a crash) skips the files already there: nothing is recomputed or
-duplicated. The config hash covers the scenario's whole configuration, so editing the study or a
-scenario starts fresh files instead of mixing old and new results.
+duplicated. The config hash covers the scenario's whole configuration (seed included), so editing
+the study or a scenario starts fresh files instead of mixing old and new results; it does not cover
+the code: after changing an estimator, run into a new folder.
 
 Execution: ``dask.distributed`` -- a ``LocalCluster`` of K single-threaded worker processes, or an
 existing cluster at ``scheduler`` ("tcp://host:port"); ``workers=0`` runs in this process (no
-cluster; for tests and debugging). Dask re-runs a task whose worker died on another worker.
+cluster; for tests and debugging). Dask re-runs a task whose worker died on another worker. The
+workers write the files themselves: on a remote cluster ``out`` must be a folder they all share.
 """
 
 from __future__ import annotations
@@ -222,7 +224,7 @@ def _run_dask(cfg, todo, data_dir: Path, workers: int, scheduler: str | None, co
     if scheduler is not None:
         client, cluster = Client(scheduler), None
     else:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
         client = Client(cluster)
     try:
         # cfg goes with each task (a few kB), not scattered: scattered data dies with its worker,
