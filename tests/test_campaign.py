@@ -177,7 +177,12 @@ def _files(data_dir: Path) -> dict[str, float]:
 def test_in_process_campaign_resumes_and_summary(tmp_path, cfg):
     """A second call skips the finished replicates (files untouched), runs only the new ones and
     never duplicates rows; a stray temporary file is ignored; the summary's coverage equals a
-    direct numpy count and the guaranteed sets cover the truth 100 % when the bound holds."""
+    direct numpy count and the guaranteed sets cover the truth 100 % when the bound holds. The
+    standard-form OBE breaks down on these regressors (SolverError): its failure is recorded, with
+    NaN values, never replaced by another answer."""
+    obe = next(e for e in cfg.estimators if e.method == "obe")
+    cfg = replace(cfg, estimators=cfg.estimators + (
+        replace(obe, label="OBE-standard", options={**obe.options, "form": "standard"}),))
     out = tmp_path / "campaign"
     first = run_campaign(cfg, 2, (BOUNDED, GAUSS), out, workers=0)
     assert sorted(first.computed) == [("bounded", 0), ("bounded", 1), ("gauss", 0), ("gauss", 1)]
@@ -190,7 +195,11 @@ def test_in_process_campaign_resumes_and_summary(tmp_path, cfg):
     assert all(after[k] == v for k, v in before.items())
     t = second.table
     assert not t.duplicated(["scenario", "replicate", "estimator", "regression", "parameter"]).any()
-    assert len(t) == 2 * 3 * 3 * 9
+    assert len(t) == 2 * 3 * 4 * 9
+    std = t[t.estimator == "OBE-standard"]
+    failed = std[std["kind"] == "failed"]
+    assert len(failed) >= 9 and failed["center"].isna().all() and std.loc[std.kind != "failed", "failure"].isna().all()
+    assert failed["failure"].str.startswith("SolverError: the standard-form OBE lost positive definiteness").all()
     s = summarize(t).set_index(["scenario", "estimator"])
     g = t[(t.scenario == "gauss") & (t.estimator == "WLS")]
     assert s.loc[("gauss", "WLS"), "coverage_pct"] == pytest.approx(
@@ -204,6 +213,9 @@ def test_in_process_campaign_resumes_and_summary(tmp_path, cfg):
     html = page.read_text()
     assert "Coverage of the truth" in html and "OBE-factorized" in html
     assert (out / "tables" / "coverage.csv").is_file()
+    assert "Failures" in html
+    for sc in ("bounded", "gauss"):
+        assert s.loc[(sc, "OBE-standard"), "failed"] == failed.loc[failed.scenario == sc, "replicate"].nunique()
 
 
 def test_measured_study_is_refused(cfg):
