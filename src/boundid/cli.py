@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -56,6 +57,29 @@ def cmd_report(args) -> int:
     index = write_index(out, entries)
     if not args.quiet:
         print(f"index: {index}")
+    return 0
+
+
+def cmd_campaign(args) -> int:
+    from boundid.report.campaign_page import write_campaign_page
+    from boundid.studies.campaign import run_campaign
+    from boundid.studies.config import load_study
+    from boundid.studies.scenarios import load_campaign
+
+    cfg = load_study(args.study)
+    if args.seed is not None:
+        cfg = cfg.with_seed(args.seed)
+    spec = load_campaign(cfg)
+    replicates = args.replicates if args.replicates is not None else spec.replicates
+    workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
+    out = Path(args.out) / cfg.name / "campaign"
+    with _progress(args.quiet) as progress:
+        result = run_campaign(cfg, replicates, spec.select(args.scenarios), out, workers=workers,
+                              scheduler=args.scheduler, progress=progress)
+    page = write_campaign_page(result)
+    if not args.quiet:
+        print(f"{cfg.name}: {len(result.computed)} replicates computed, {len(result.skipped)} already done "
+              f"({result.elapsed_s:.1f} s); {page}")
     return 0
 
 
@@ -118,6 +142,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=str(DEFAULT_REPORTS))
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=cmd_report)
+
+    p = sub.add_parser(
+        "campaign", help="Monte Carlo campaign: every estimator on fresh noise, per scenario (resumable)",
+        description="Runs replicates 0..N-1 of each scenario of the study's [campaign] table with Dask and writes "
+                    "one Parquet file per (scenario, replicate) to <out>/<study>/campaign/data/ (a re-run skips "
+                    "those already there), then the summary page <out>/<study>/campaign/index.html. Campaign mode: "
+                    "no SDP ellipsoids and no validation experiment.")
+    p.add_argument("study", help="study file, e.g. studies/direct_drive_rls.toml")
+    p.add_argument("--replicates", type=int, help="replicates per scenario (default: campaign.replicates)")
+    p.add_argument("--scenarios", nargs="+", metavar="NAME", help="scenarios to run (default: all of the study's)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, metavar="K",
+                       help="local Dask cluster of K single-thread worker processes (default: one per CPU; "
+                            "0: in this process, no cluster)")
+    where.add_argument("--scheduler", metavar="ADDRESS", help="existing Dask scheduler, e.g. tcp://host:8786")
+    p.add_argument("--seed", type=int, help="override the study's seed (the root of every replicate's seed)")
+    p.add_argument("--out", default=str(DEFAULT_REPORTS), help="reports folder (default: reports)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(func=cmd_campaign)
 
     p = sub.add_parser("bench", help="run the benchmarks, write reports/benchmarks/")
     p.add_argument("--out", default=str(DEFAULT_REPORTS))

@@ -267,6 +267,7 @@ def load_study(path: str | Path) -> StudyConfig:
         paper=dict(top.raw("paper", {})),
         file=path,
     )
+    top.raw("campaign", {})  # [[campaign.scenarios]]: parsed by boundid.studies.scenarios.load_campaign
     st.check_unknown()
     top.check_unknown()
     return cfg
