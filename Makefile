@@ -6,7 +6,7 @@ STAMP  := $(VENV)/.installed-stamp
 # two workers: the machines have 2 cores
 PYTEST := $(BIN)/pytest -n 2 -q
 
-.PHONY: install test test-all bench report lint teach test-browser clean
+.PHONY: install test test-all bench report lint teach campaign test-browser clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -30,6 +30,10 @@ bench: $(STAMP)
 
 report: $(STAMP)
 	$(BIN)/boundid report
+
+# Monte Carlo campaign of the direct-drive study: 20 replicates of each noise scenario (resumable)
+campaign: $(STAMP)
+	$(BIN)/boundid campaign studies/direct_drive_rls.toml --replicates 20 --workers 2
 
 # the lessons in studies/teaching, one self-contained handout each in reports/teaching/
 teach: $(STAMP)
