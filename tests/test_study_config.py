@@ -92,3 +92,11 @@ def test_recording_errors_name_the_problem(tmp_path):
     write_recording(Recording(bad_t, t[:, None], t[:, None]), path)
     with pytest.raises(InputError, match="not uniformly spaced"):
         read_recording(path, "t", ["q1"], ["tau1"])
+
+
+def test_obe_bound_must_match_the_exact_polytope(tmp_path):
+    """An OBE certified against a polytope of another bound would be a meaningless comparison."""
+    text = MINIMAL + ('[[estimators]]\nmethod = "obe"\nregressions = ["inverse_dynamic"]\ne_max = 2.0\n'
+                      '[exact]\nregression = "inverse_dynamic"\ne_max = 3.0\n')
+    with pytest.raises(StudyError, match=r"exact\.e_max: is 3.0 but estimator 'OBE'"):
+        load_study(_write(tmp_path, text))

@@ -250,6 +250,11 @@ def load_study(path: str | Path) -> StudyConfig:
             raise ex.error("projections", f"each entry must be a pair of parameter names, got {pair!r}.")
     if exact.regression is not None and exact.e_max is None:
         raise ex.error("e_max", "is required with `regression`: the exact polytope needs the error bound (N m).")
+    for e in estimators:
+        if e.method == "obe" and exact.regression in e.regressions and e.options.get("e_max") != exact.e_max:
+            raise ex.error("e_max", f"is {exact.e_max} but estimator {e.label!r} bounds the same {exact.regression} "
+                                    f"rows by e_max = {e.options.get('e_max')}: a set is certified against the "
+                                    "polytope of its own bound, so the two must be equal.")
     ex.check_unknown()
     cfg = StudyConfig(
         name=st.str("name"),

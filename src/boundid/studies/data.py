@@ -9,7 +9,7 @@ import numpy as np
 from boundid.errors import StudyError
 from boundid.experiments.excitation import RampedMultisine
 from boundid.experiments.recording import Recording, read_recording
-from boundid.experiments.simulation import Trajectory, measure, simulate_open_loop
+from boundid.experiments.simulation import measure, simulate_open_loop
 from boundid.models import RobotModel
 from boundid.studies.config import StudyConfig
 
@@ -17,21 +17,15 @@ from boundid.studies.config import StudyConfig
 @dataclass
 class StudyData:
     """recording: what identification sees (measured q [rad], tau [N m] at t [s]).
-    truth: the noise-free simulated trajectory (None for measured data).
-    validation / validation_truth: a second, different experiment for cross-validation (or None).
+    validation: a second, different experiment for cross-validation (or None).
     excitation: the open-loop torque law (for re-simulation), if any.
+    info: facts about the experiment shown in the report (condition numbers, saturation ...).
     """
 
     recording: Recording
-    truth: Trajectory | None = None
     validation: Recording | None = None
-    validation_truth: Trajectory | None = None
     excitation: object | None = None
     info: dict = field(default_factory=dict)
-
-
-def _recording(traj: Trajectory) -> Recording:
-    return Recording(t=traj.t, q=traj.q, tau=traj.tau)
 
 
 def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:
@@ -60,5 +54,5 @@ def _open_loop(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) ->
     traj = simulate_open_loop(model, excitation, exp.duration_s, exp.sample_period_s,
                               coulomb_width=exp.coulomb_width_rad_s)
     meas = measure(traj, exp.encoder_counts_per_rev, exp.torque_noise, rng)
-    return StudyData(recording=_recording(meas), truth=traj, excitation=excitation,
-                     info={"torque_outliers": int(meas.info["outliers"].sum())})
+    return StudyData(recording=Recording(t=meas.t, q=meas.q, tau=meas.tau), excitation=excitation,
+                     info={"torque outliers": int(meas.info["outliers"].sum())})
