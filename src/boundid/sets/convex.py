@@ -1,0 +1,45 @@
+"""The `ConvexSet` protocol: what every guaranteed or confidence set offers to the layers below.
+
+Certification, validation, figures and tables use only these methods, so an estimator may return
+an ellipsoid, a box, a zonotope, a parallelotope or a polytope and be compared with the others.
+
+Shapes: ``p`` parameters; a point is (p,), a batch of points (m, p).
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+
+@runtime_checkable
+class ConvexSet(Protocol):
+    """A compact convex set in R^p."""
+
+    @property
+    def dim(self) -> int:
+        """p, the dimension of the space the set lives in."""
+
+    def intervals(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi), each (p,): the set's projection on every axis (its interval hull)."""
+
+    def support(self, direction) -> float:
+        """h(d) = max over x in the set of d^T x, for d (p,)."""
+
+    def contains(self, points):
+        """Whether a point (p,) lies in the set (bool), or each of (m, p) points ((m,) bool).
+
+        The test allows only for rounding (a relative tolerance of the order of 1e-9 of the set's
+        own scale); a point the set excludes by more is outside."""
+
+    def log_volume(self) -> float:
+        """ln of the p-dimensional volume; -inf for a flat set, NaN where the family cannot say."""
+
+    def project(self, i: int, j: int) -> ConvexSet:
+        """The set's shadow on the plane of parameters (i, j): a 2-D set of the same family
+        (a polytope's shadow is a polygon), exact."""
+
+    def boundary(self, n_points: int = 200) -> np.ndarray:
+        """For a 2-D set only: its boundary as a closed polygon (m, 2), counter-clockwise, for
+        drawing (vertices for polyhedral sets, ``n_points`` samples for curved ones)."""
