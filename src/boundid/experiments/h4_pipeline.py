@@ -100,8 +100,9 @@ def identification_regression(robot, t, q, tau, cutoff_hz: float, decimation: in
 class H4ExperimentConfig:
     """Settings of the simulated H4 experiment (defaults follow studies/h4_obe.toml).
 
-    structural : scale of H4Structural (0 = none); bandwidth_hz : position loop (PID from the
-    a-priori inertia at home); cutoff_hz : None = cutoff_from_bandwidth(bandwidth_hz);
+    structural : scale of H4Structural (0 = none, 1 = the default arms, rods and cogging; the
+    truth's theta stays the robot's, see :func:`simulated_truth`); bandwidth_hz : position loop
+    (PID from the a-priori inertia at home); cutoff_hz : None = cutoff_from_bandwidth(bandwidth_hz);
     optimize_evals : Powell evaluations for the trajectory (0 = random coefficients only).
     fast_period, slow_fraction : s, period of the fast (inertia) segment and the share of the
         duration given to the slow (friction) one (see ``exciting_trajectory``).
@@ -157,19 +158,32 @@ class H4Recording:
     trajectory: SegmentedTrajectory
 
 
+def simulated_truth(robot, config: H4ExperimentConfig | None = None):
+    """The robot the experiment simulates: H4Truth with ``robot``'s geometry, gravity and
+    theta_true (so Imot holds the arms' motor-inertia share) and ``config.structural``.
+
+    Pass it to :func:`boundid.experiments.best_approximation.best_approximation` for the model's
+    best approximation of the simulated robot.
+    """
+    from boundid.models.h4 import H4Truth
+
+    cfg = config or H4ExperimentConfig()
+    return H4Truth(robot.geometry, cfg.structural, g=robot.g, theta_true=robot.theta_true)
+
+
 def simulate_h4_experiment(rng: np.random.Generator, config: H4ExperimentConfig | None = None,
                            robot=None) -> tuple[dict[str, H4Recording], dict]:
     """Simulate the paper's two closed-loop experiments ("identification", "validation").
 
-    robot : the identification model (default H4Robot()); the simulated truth is H4Truth with the
-    same geometry and ``config.structural``. Two different exciting trajectories are drawn from
+    robot : the identification model (default H4Robot()); the simulated truth is
+    :func:`simulated_truth`. Two different exciting trajectories are drawn from
     ``rng``. Returns the recordings and facts (condition numbers, saturation, cut-off).
     """
-    from boundid.models.h4 import H4Robot, H4Truth
+    from boundid.models.h4 import H4Robot
 
     cfg = config or H4ExperimentConfig()
     robot = robot or H4Robot()
-    truth = H4Truth(robot.geometry, cfg.structural, g=robot.g, theta_true=robot.theta_true)
+    truth = simulated_truth(robot, cfg)
     qh = robot.inverse_kinematics(np.asarray(robot.geometry.home))
     prior = np.where(np.isnan(robot.theta_prior), 0.0, robot.theta_prior)
     controller = JointPID.from_bandwidth(np.diag(robot.mass_matrix(qh, prior)), cfg.bandwidth_hz)

@@ -6,8 +6,12 @@ formulas of :mod:`boundid.models.h4_kinematics` (numpy, batched, the reference) 
 tests/test_h4_model.py checks them against it.
 
 Argument packs: geo = (P (4,3), V (4,3), W (4,3), side (4,), updown (4,), dims = [L, l, d, h]);
-theta (14,) = [Imot1..4, Mnac, Ibc, Fv1..4, Fs1..4]; struct = [m_link, m_rod, ripple_amp,
-ripple_periods] (kg, kg, N m, cycles per turn), all zero for the identification model.
+theta (14,) = [Imot1..4, Mnac, Ibc, Fv1..4, Fs1..4] (for the simulated truth: rotor inertias and
+nacelle body, i.e. without the arm and rod shares, see ``H4Truth.body_parameters``); struct =
+[I_arm, s_arm, m_rod, ripple_amp, ripple_periods] (kg m^2, kg m, kg, N m, cycles per turn): each
+motor-side arm's inertia about its motor axis and static moment (mass x distance of its centre of
+mass from the axis, towards the elbow), each forearm rod's mass, the cogging; all zero for the
+identification model.
 """
 
 from __future__ import annotations
@@ -90,9 +94,11 @@ def dynamics1(q, qd, x0, P, V, W, side, updown, dims, theta, struct, g, width, t
     """Joint-space inertia M (4,4) and bias b (4,) with tau = M qdd + b at one state.
 
     Model part (eq. 14): M = Imot + J^T Mx J, b = J^T Mx (Jdot qd - G) + Fv qd + Fs c(qd),
-    c = sign (width 0) or tanh(qd / width). Structural part (truth only): the motor-side arm's
-    weight, the forearms as uniform rods (line masses between elbow B_i and attachment A_i), and a
-    conservative cogging ripple -a sin(n q_i). Returns (M, b, x, converged).
+    c = sign (width 0) or tanh(qd / width). Structural part (truth only, ``theta`` then holds the
+    rotor and nacelle-body values): each motor-side arm, a rigid body turning with its motor
+    (inertia I_arm about the axis, weight m g at r_c along the arm, s_arm = m r_c), the forearms
+    as uniform rods (line masses between elbow B_i and attachment A_i), and a conservative cogging
+    ripple -a sin(n q_i). Returns (M, b, x, converged).
     """
     x, ok = _fk1(q, x0, P, V, W, side, updown, dims, tol, max_iter)
     M = np.zeros((4, 4))
@@ -100,7 +106,7 @@ def dynamics1(q, qd, x0, P, V, W, side, updown, dims, theta, struct, g, width, t
     if not ok:
         return M, b, x, False
     AB, dB, d2B, de, Jx, jq = _chains1(x, q, P, V, W, side, updown, dims)
-    d = dims[2]
+    L, d = dims[0], dims[2]
     J = np.linalg.solve(Jx, np.diag(jq))
     xd = J @ qd
     # Jdot qd = Jx^-1 (Jq_dot qd - Jx_dot xd)
@@ -130,12 +136,14 @@ def dynamics1(q, qd, x0, P, V, W, side, updown, dims, theta, struct, g, width, t
             b[r] += J[k, r] * mx[k] * acc[k]
             for cidx in range(4):
                 M[r, cidx] += J[k, r] * mx[k] * J[k, cidx]
-    m_link, m_rod, ripple, n_rip = struct[0], struct[1], struct[2], struct[3]
-    if m_link == 0.0 and m_rod == 0.0 and ripple == 0.0:
+    i_arm, s_arm, m_rod, ripple, n_rip = struct[0], struct[1], struct[2], struct[3], struct[4]
+    if i_arm == 0.0 and s_arm == 0.0 and m_rod == 0.0 and ripple == 0.0:
         return M, b, x, True
     for i in range(4):
-        # motor-side arm, centre of mass at mid-length: dU/dq_i = m_link g dz_B/dq_i / 2
-        b[i] += 0.5 * m_link * g * dB[i, 2]
+        # motor-side arm: its centre of mass moves like the elbow scaled by r_c / L, so
+        # dU/dq_i = m g r_c / L dz_B/dq_i = g s_arm dz_B/dq_i / L
+        M[i, i] += i_arm
+        b[i] += s_arm * g * dB[i, 2] / L
         b[i] -= ripple * np.sin(n_rip * q[i])
         if m_rod == 0.0:
             continue

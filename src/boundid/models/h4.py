@@ -5,8 +5,8 @@
     theta = [Imot1..4, Mnac, Ibc, Fv1..4, Fs1..4]                                      (18)
 
 The joint state is the motor angles q (rad); the nacelle pose x = FK(q) is computed inside by the
-Newton forward model. Geometry, true and prior values: /work/shared/design/H4_MODEL.md (true =
-the paper's Table I ellipsoid centre, prior = its a-priori column; friction has no prior, NaN).
+Newton forward model. Geometry, true and prior values: the project's H4 design note (true = the
+paper's Table I ellipsoid centre, prior = its a-priori column; friction has no prior, NaN).
 
 Derived forms used by the regression models (K = kinetic, U = potential energy):
 
@@ -15,8 +15,12 @@ Derived forms used by the regression models (K = kinetic, U = potential energy):
                (d/dt(J^T M xd) = Jdot^T M xd + J^T M xdd)
     energy     H = 1/2 sum Imot_i qd_i^2 + 1/2 Mnac |Dd|^2 + 1/2 Ibc thd^2 + Mnac g z   -> phi_H
 
-:class:`H4Truth` adds what the model neglects (the motor-side arms' weight, the forearms' mass,
-cogging ripple), so that simulated data carry bounded structural error, as a real robot's do.
+:class:`H4Truth` is the robot as simulated: rotors, motor-side arms, forearm rods, nacelle and
+cogging as physical bodies. Its ``theta_true`` is expressed in the 14 parameters of eq. (18): the
+part of the arms and rods that acts exactly like a motor inertia (or a nacelle mass) is in it, as
+the paper says of its Table I ("motor inertias ... encompass the inertia of the fore-arm"). What
+eq. (14) cannot represent (arm weight, the rods' own rotation, cogging) is the structural error
+the simulated data carry, bounded as a real robot's is.
 """
 
 from __future__ import annotations
@@ -42,22 +46,49 @@ THETA_PRIOR = np.array([0.012, 0.012, 0.012, 0.012, 1.0, 0.0008] + [np.nan] * 8)
 
 @dataclass(frozen=True)
 class H4Structural:
-    """What the identification model of eq. (14) leaves out; simulated by :class:`H4Truth`.
+    """The bodies and effects eq. (14) leaves out; simulated by :class:`H4Truth`.
 
-    link_mass : kg, mass of each motor-side arm (length L), centre of mass at mid-length. Its
-        inertia about the motor axis is exactly part of Imot; its weight is not in the model.
-    rod_mass : kg, mass of each forearm (elbow B_i to nacelle A_i), a uniform thin rod.
-    ripple_amplitude : N m, cogging torque a sin(n q_i) added to each motor's torque.
+    link_mass : kg, each motor-side arm (motor axis P_i to elbow B_i), a uniform bar of length L
+        turning with its motor.
+    elbow_mass : kg, the elbow joint at B_i (a point mass at distance L from the axis).
+    counter_mass : kg, a point mass on the arm's extension behind the motor axis, at
+        ``counter_distance`` m from it, balancing the arm's weight.
+        The arm's inertia about the motor axis, m L^2 / 3 + m_e L^2 + m_c b^2, is exactly a
+        motor inertia (in ``represented``); the weight left unbalanced,
+        (m L / 2 + m_e L - m_c b) g cos(q_i) about the axis, is not in eq. (14).
+    rod_mass : kg, each forearm (elbow B_i to nacelle attachment A_i), a uniform thin rod of length
+        l. Statically equivalent to half its mass at each end (same mass and centre of mass, hence
+        the same weight): the elbow half is a motor inertia (m/2) L^2, the nacelle halves add
+        2 m to Mnac and 2 m d^2 to Ibc (exactly, as the four sides cancel), all in
+        ``represented``. Not representable: the elbow half's weight and the rod's own rotation
+        (a uniform rod has m l^2 / 12 about its centre, the two end masses m l^2 / 4).
+    ripple_amplitude : N m, cogging torque -a sin(n q_i) on each motor (conservative).
     ripple_periods : n, cogging cycles per motor turn.
+
+    Default sizes (the real H4's are not public; chosen from what the paper states, for L = 0.3 m):
+    - arms balanced: eq. (14) has no gravity term for the arms, so a robot it fits has arms whose
+      weight is compensated. A 0.35 kg counter-mass 6 cm behind the axis balances the bar
+      (0.14 kg, an aluminium 300 x 20 x 9 mm); the elbow joint (15 g) and the rods' elbow halves
+      stay unbalanced: (0.015 + 0.005) kg x 0.3 m x g = 0.059 N m, the uncompensated arm weight.
+    - the arm's inertia makes the mean rotor inertia, Table I Imot minus the arm and rod shares,
+      the a-priori 0.012 kg m^2 "known by design" (the paper: the identified Imot exceed it
+      because they encompass the arm): share 0.0073 kg m^2 per motor.
+    - rod_mass 10 g: the paper's forearms are carbon tubes whose effects it neglects; Table I's
+      Ibc = 0.0005 kg m^2 must hold their nacelle halves, 2 m d^2, so m <= 17 g with d = 0.12 m.
+    - cogging 0.05 N m (0.3 % of the +-15 N m range), 24 cycles per turn.
     """
 
-    link_mass: float = 0.3
-    rod_mass: float = 0.1
+    link_mass: float = 0.14
+    elbow_mass: float = 0.015
+    counter_mass: float = 0.35
+    counter_distance: float = 0.06
+    rod_mass: float = 0.010
     ripple_amplitude: float = 0.05
     ripple_periods: int = 24
 
     def __post_init__(self):
-        vals = (self.link_mass, self.rod_mass, self.ripple_amplitude, self.ripple_periods)
+        vals = (self.link_mass, self.elbow_mass, self.counter_mass, self.counter_distance, self.rod_mass,
+                self.ripple_amplitude, self.ripple_periods)
         if not all(np.isfinite(v) and v >= 0 for v in vals):
             raise InputError(f"H4Structural values must be finite and >= 0, got {self}.")
 
@@ -65,14 +96,36 @@ class H4Structural:
         """The same error sources with masses and ripple multiplied by k >= 0 (0 = none)."""
         if not (np.isfinite(k) and k >= 0):
             raise InputError(f"structural error scale must be finite and >= 0, got {k}.")
-        return replace(self, link_mass=k * self.link_mass, rod_mass=k * self.rod_mass,
+        return replace(self, link_mass=k * self.link_mass, elbow_mass=k * self.elbow_mass,
+                       counter_mass=k * self.counter_mass, rod_mass=k * self.rod_mass,
                        ripple_amplitude=k * self.ripple_amplitude)
 
-    def as_array(self) -> np.ndarray:
-        return np.array([self.link_mass, self.rod_mass, self.ripple_amplitude, float(self.ripple_periods)])
+    def arm_inertia(self, L: float) -> float:
+        """Inertia of one motor-side arm (bar, elbow, counter-mass) about its motor axis, kg m^2."""
+        return (self.link_mass / 3.0 + self.elbow_mass) * L**2 + self.counter_mass * self.counter_distance**2
+
+    def arm_moment(self, L: float) -> float:
+        """Static moment left unbalanced, kg m: mass x distance of the arm's centre of mass from the axis."""
+        return (0.5 * self.link_mass + self.elbow_mass) * L - self.counter_mass * self.counter_distance
+
+    def represented(self, geometry: H4Geometry) -> np.ndarray:
+        """theta increment (14,) of these bodies that eq. (14) represents exactly (see the class doc).
+
+        Imot_i += I_arm + m_rod L^2 / 2,  Mnac += 2 m_rod,  Ibc += 2 m_rod d^2  (SI units).
+        """
+        share = np.zeros(len(PARAM_NAMES))
+        share[:4] = self.arm_inertia(geometry.L) + 0.5 * self.rod_mass * geometry.L**2
+        share[4] = 2.0 * self.rod_mass
+        share[5] = 2.0 * self.rod_mass * geometry.d**2
+        return share
+
+    def kernel_array(self, L: float) -> np.ndarray:
+        """The ``struct`` pack of :mod:`boundid.models._h4_kernels`: [I_arm, s_arm, m_rod, ripple, periods]."""
+        return np.array([self.arm_inertia(L), self.arm_moment(L), self.rod_mass, self.ripple_amplitude,
+                         float(self.ripple_periods)])
 
 
-NO_STRUCTURAL_ERROR = H4Structural(0.0, 0.0, 0.0, 0)
+NO_STRUCTURAL_ERROR = H4Structural(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0)
 
 
 class H4Robot(H4Kinematics, RobotModel):
@@ -191,8 +244,8 @@ class H4Robot(H4Kinematics, RobotModel):
         coulomb(np.zeros(1), coulomb_width)  # validates the width
         theta = self._theta(theta)
         x0 = np.broadcast_to(np.asarray(self.geometry.home if x0 is None else x0, float), q.shape)
-        M, b, x, ok = kern.dynamics_batch(q, qd, np.ascontiguousarray(x0), *self._geo, theta,
-                                          self.structural.as_array(), self.g, float(coulomb_width),
+        M, b, x, ok = kern.dynamics_batch(q, qd, np.ascontiguousarray(x0), *self._geo, self._kernel_theta(theta),
+                                          self.structural.kernel_array(self.geometry.L), self.g, float(coulomb_width),
                                           self.fk_tol, self.fk_max_iter)
         if not ok.all():
             n = int(np.argmin(ok))
@@ -203,7 +256,7 @@ class H4Robot(H4Kinematics, RobotModel):
         return M, b, x
 
     def mass_matrix(self, q, theta=None) -> np.ndarray:
-        """Imot + J^T M J (N, 4, 4) (plus the forearm rods' inertia for H4Truth)."""
+        """Imot + J^T M J (N, 4, 4) (for H4Truth: of all its bodies, the rods' rotation included)."""
         (q,), single = self._states(q, names=("q",))
         M = self.joint_dynamics(q, np.zeros_like(q), theta)[0]
         return M[0] if single else M
@@ -229,15 +282,25 @@ class H4Robot(H4Kinematics, RobotModel):
 
     def step_kernel_args(self, theta=None) -> tuple:
         """Arguments after (q, qd, tau, x_hint, dt, substeps) of ``_h4_kernels.rk4_zoh`` for this robot."""
-        return (*self._geo, self._theta(theta), self.structural.as_array(), self.g)
+        return (*self._geo, self._kernel_theta(theta), self.structural.kernel_array(self.geometry.L), self.g)
+
+    def _kernel_theta(self, theta) -> np.ndarray:
+        """The theta the compiled kernels take: eq. (18)'s own for the identification model."""
+        return self._theta(theta)
 
 
 class H4Truth(H4Robot):
-    """The H4 robot as simulated: the model of eq. (14) plus the neglected effects of ``structural``.
+    """The H4 robot as simulated: rotors, motor-side arms, forearm rods, nacelle and cogging.
 
     structural : H4Structural (default sizes) or a float k meaning ``H4Structural().scaled(k)``.
+    theta_true : the simulated robot in eq. (18)'s parameters (default Table I centre): Imot_i
+        includes the arms' and rods' motor-inertia share, Mnac and Ibc the rods' nacelle share
+        (``H4Structural.represented``). ``body_parameters`` gives what is left for the rotors and
+        the nacelle body. Raises InputError if that is not physical (e.g. structural too large).
+
     The regressors stay those of the identification model (what one identifies with); mass
-    matrix, bias, forward/inverse dynamics and energy include the structural terms.
+    matrix, bias, forward/inverse dynamics and energy are the simulated robot's, so that
+    ``inverse_dynamics - regressor @ theta_true`` is exactly the structural error.
     """
 
     name = "h4_truth"
@@ -247,20 +310,46 @@ class H4Truth(H4Robot):
         if not isinstance(structural, H4Structural):
             structural = H4Structural().scaled(float(structural))
         self.structural = structural
+        self.body_parameters()  # the truth must be physical
+
+    @property
+    def represented_share(self) -> np.ndarray:
+        """theta increment (14,) of the arms and rods that eq. (14) represents exactly."""
+        return self.structural.represented(self.geometry)
+
+    def body_parameters(self, theta=None) -> np.ndarray:
+        """theta (14,) minus the arms' and rods' share: rotor inertias, nacelle body mass and inertia.
+
+        Raises InputError unless rotors > 0, nacelle mass > 0 and nacelle inertia >= 0.
+        """
+        body = self._theta(theta) - self.represented_share
+        physical = np.append(body[:5] > 0, body[5] >= 0)
+        if not physical.all():
+            bad = [f"{n} = {v:.4g}" for n, v, ok in zip(PARAM_NAMES, body, physical, strict=False) if not ok]
+            raise InputError(
+                f"the arms and rods of {self.structural} need more inertia than theta gives: the rotor and "
+                f"nacelle-body values left ({', '.join(bad)}) are not physical. Lower the structural scale or "
+                "the link/rod masses, or raise theta's Imot, Mnac, Ibc."
+            )
+        return body
+
+    def _kernel_theta(self, theta) -> np.ndarray:
+        return self.body_parameters(theta)
 
     def energy(self, q, qd, theta=None) -> np.ndarray:
-        """H (N,) of the simulated robot: model energy + arms' weight + forearm rods + cogging potential."""
+        """H (N,) of the simulated robot: rotors and nacelle body + arms + forearm rods + cogging potential."""
         (q, qd), single = self._states(q, qd, names=("q", "qd"))
-        H = super().energy(q, qd, theta)
+        H = super().energy(q, qd, self.body_parameters(theta))
         s, geo = self.structural, self.geometry
         x, J, xd, _ = self.kinematic_state(q, qd)
         A, dA = self.attachments(x)
         B, dB = self.elbows(q)
         Ad = np.einsum("nijk,nk->nij", dA, xd)
         Bd = dB * qd[..., None]
-        kin = s.rod_mass / 6.0 * np.sum(Ad * Ad + Ad * Bd + Bd * Bd, axis=(1, 2))
-        zc = geo.P[:, 2] + 0.5 * (B[..., 2] - geo.P[:, 2])  # arm centre of mass
-        pot = self.g * (s.link_mass * zc.sum(1) + 0.5 * s.rod_mass * (A[..., 2] + B[..., 2]).sum(1))
+        kin = 0.5 * s.arm_inertia(geo.L) * np.sum(qd**2, axis=1)
+        kin += s.rod_mass / 6.0 * np.sum(Ad * Ad + Ad * Bd + Bd * Bd, axis=(1, 2))
+        arm_z = s.arm_moment(geo.L) / geo.L * (B[..., 2] - geo.P[:, 2])  # (mass x height) of each arm's centre
+        pot = self.g * (arm_z.sum(1) + 0.5 * s.rod_mass * (A[..., 2] + B[..., 2]).sum(1))
         if s.ripple_amplitude > 0:
             pot += s.ripple_amplitude / s.ripple_periods * np.cos(s.ripple_periods * q).sum(1)
         H = H + kin + pot

@@ -1,8 +1,7 @@
 """H4 parallel robot kinematics: geometry, closed-form inverse model, Jacobian, Newton forward model.
 
 The seed-000 paper (section II.A) gives the structure but not the dimensions (they are not
-public); the geometry below is the one chosen for this project in
-``/work/shared/design/H4_MODEL.md``:
+public); the geometry below is the one chosen for this project (its H4 design note):
 
     alpha = (0, pi, 3pi/2, 3pi/2)          u = (+y, -y, +x, +x)          (paper, section II.A)
     v_i = (cos alpha_i, sin alpha_i, 0),   w_i = u_i x v_i (= -z)
