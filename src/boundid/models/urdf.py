@@ -22,16 +22,20 @@ Parameters theta (p,), in this order:
 Regressors (all batched over N samples, shapes as in :mod:`boundid.models.base`):
 
 - inverse dynamics ``pin.computeJointTorqueRegressor`` [Pinocchio], plus the joint-wise columns;
-- momentum and remainder (the filtered dynamic model), from the subtree momenta. With S_j the
-  axis of joint j and h_j = sum_{i >= j} I_i v_i the spatial momentum of the bodies it carries
-  (world frame, linear in theta: h_i = G_i(q, qd) theta_i),
+- momentum (the filtered dynamic model): M(q) qd is the torque that accelerates the robot at rest
+  by qd without gravity, so Ya(q, qd) = Y_{g=0}(q, 0, qd), the torque regressor of a gravity-free
+  copy of the model;
+- remainder: by Lagrange's equation tau = d/dt(dK/dqd) - dK/dq + dU/dq + f, with M qd = dK/dqd,
+  Yb theta = g(q) - dK/dq + f(qd) (+ off); g is the torque regressor at (q, 0, 0). The gradient of
+  K comes from the subtree momenta: with S_j the axis of joint j, v_j the spatial velocity of body
+  j and h_j = sum_{i >= j} I_i v_i the momentum of the bodies joint j carries (world frame, linear
+  in theta: h_i = G_i(q, qd) theta_i),
 
-      p_j = (M(q) qd)_j = S_j^T h_j                      (generalised momentum)
-      dK/dq_j           = (v_j x S_j)^T h_j               (v_j: spatial velocity of body j)
+      dK/dq_j = (v_j x S_j)^T h_j
 
-  so Ya theta = M qd and, from Lagrange's equation tau = d/dt(dK/dqd) - dK/dq + dU/dq + f,
-  Yb theta = g(q) - dK/dq + f(qd) (+ off). dK/dq = C^T qd for pinocchio's Coriolis matrix (the
-  derivation is checked against finite differences of the kinetic energy in tests/test_urdf.py);
+  (turning joint j by e moves the bodies i >= j rigidly by the twist e S_j; the derivative of
+  1/2 sum v_i^T I_i v_i is then -(S_j x v_j)^T h_j). dK/dq = C^T qd for pinocchio's Coriolis matrix,
+  checked in tests/test_urdf.py, with finite differences of the kinetic energy;
 - energy ``pin.computeKineticEnergyRegressor`` + ``computePotentialEnergyRegressor`` (+ Ia qd^2 / 2),
   potential energy U = -sum_i m_i g . c_i, zero at the world origin;
 - friction power qd^T (fv qd + fc sign qd + off) = fv qd^2 + fc |qd| + off qd (the offset's power
@@ -289,6 +293,9 @@ class UrdfRobot(RobotModel):
         self.limits = self._read_limits(velocity_limit, acceleration_limit)
 
         self._data = model.createData()
+        self._still = pin.Model(model)  # the same chain without gravity, for the momentum regressor
+        self._still.gravity = pin.Motion.Zero()
+        self._still_data = self._still.createData()
         self._dyn_key: np.ndarray | None = None
         self._dyn: tuple[pin.Model, object] | None = None
         self._fast_theta: list[float] | None = None
@@ -347,8 +354,8 @@ class UrdfRobot(RobotModel):
             Y[k, :, :10 * n] = pin.computeJointTorqueRegressor(self._model, self._data, Q[k], qd[k], qdd[k])
         return self._joint_columns(Y, {"Ia": qdd, "fv": qd, "fc": np.sign(qd), "off": np.ones_like(qd)})
 
-    def _subtree_momentum(self, q, qd) -> tuple[np.ndarray, np.ndarray]:
-        """(Ya, dK/dq) inertial blocks, each (N, n, 10 n): S_j^T h_j and (v_j x S_j)^T h_j (module doc)."""
+    def _kinetic_gradient(self, q, qd) -> np.ndarray:
+        """dK/dq regressor, inertial block (N, n, 10 n): (v_j x S_j)^T h_j (module docstring)."""
         Q, n = self._config(q), self.n_joints
         N = q.shape[0]
         model, data = self._model, self._data
@@ -368,15 +375,16 @@ class UrdfRobot(RobotModel):
         vxS = np.concatenate([np.cross(w_ang, S[..., :3]) + np.cross(v_lin, S[..., 3:]),
                               np.cross(w_ang, S[..., 3:])], axis=-1)
         carries = np.triu(np.ones((n, n)))[None, :, :, None]    # body i is carried by joint j iff i >= j
-        Ya = (np.einsum("Nja,Niak->Njik", S, G) * carries).reshape(N, n, 10 * n)
-        dK = (np.einsum("Nja,Niak->Njik", vxS, G) * carries).reshape(N, n, 10 * n)
-        return Ya, dK
+        return (np.einsum("Nja,Niak->Njik", vxS, G) * carries).reshape(N, n, 10 * n)
 
     def momentum_regressor(self, q, qd) -> np.ndarray:
-        """Ya (N, n, p): M(q) qd = Ya theta (plus Ia qd with armature)."""
+        """Ya (N, n, p): M(q) qd = Ya theta, the gravity-free torque regressor at (q, 0, qd) (plus Ia qd)."""
         (q, qd), _ = self._states(q, qd)
+        Q, n = self._config(q), self.n_joints
         Y = self._empty(q.shape[0])
-        Y[:, :, :10 * self.n_joints] = self._subtree_momentum(q, qd)[0]
+        zero = np.zeros(n)
+        for k in range(q.shape[0]):
+            Y[k, :, :10 * n] = pin.computeJointTorqueRegressor(self._still, self._still_data, Q[k], zero, qd[k])
         return self._joint_columns(Y, {"Ia": qd})
 
     def remainder_regressor(self, q, qd) -> np.ndarray:
@@ -384,7 +392,7 @@ class UrdfRobot(RobotModel):
         (q, qd), _ = self._states(q, qd)
         Q, n = self._config(q), self.n_joints
         Y = self._empty(q.shape[0])
-        Y[:, :, :10 * n] = -self._subtree_momentum(q, qd)[1]
+        Y[:, :, :10 * n] = -self._kinetic_gradient(q, qd)
         zero = np.zeros(n)
         for k in range(q.shape[0]):
             Y[k, :, :10 * n] += pin.computeJointTorqueRegressor(self._model, self._data, Q[k], zero, zero)
