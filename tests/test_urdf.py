@@ -190,6 +190,20 @@ def test_continuous_joints_use_cos_sin_configuration():
                                    atol=1e-10)
 
 
+def test_prismatic_joint_and_mimic_joint():
+    """The Panda file as a path: its mimic finger joint is left out, the other finger is a prismatic joint
+    (units N s/m, N), and Y theta = RNEA of pinocchio's model with the mimic joint locked."""
+    robot = UrdfRobot(example_robots_dir() / EXAMPLE_ROBOTS["panda"][0])
+    assert robot.joint_names[-1] == "panda_finger_joint1" and robot.joint_kinds[-1] == "prismatic"
+    assert robot.param_units[robot.param_names.index("fv8")] == "N s/m"
+    full = pin.buildModelFromUrdf(str(robot.urdf_path))
+    model = pin.buildReducedModel(full, [full.getJointId("panda_finger_joint2")], pin.neutral(full))
+    data = model.createData()
+    q, qd, qdd = states(robot, N=10)
+    ref = np.array([pin.rnea(model, data, q[k], qd[k], qdd[k]) for k in range(len(q))]) + friction(robot, qd)
+    np.testing.assert_allclose(robot.inverse_dynamics(q, qd, qdd), ref, atol=1e-10)
+
+
 def test_limits_read_from_the_urdf(robots):
     """UR5 limits as in its URDF (efforts 150/28 N m, velocities 3.15/3.2 rad/s), accelerations by the stated rule."""
     lim = robots["ur5"].limits

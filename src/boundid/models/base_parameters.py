@@ -1,18 +1,26 @@
 """Base parameters: the identifiable combinations of a robot's standard parameters [GautierKhalil1990].
 
-Numerical method (the QR form of [GautierKhalil1990], as in [Leboutet2021] §3): stack the
-regressor over random states into W (N n x p) and factor it with column pivoting, W P = Q R. The
-rank r counts the diagonal entries |R_ii| > tol |R_11|. The first r pivoted columns are
-independent (P1, the kept standard parameters theta_1); the others (P2, theta_2) are combinations
-of them, W P2 = W P1 Kd with Kd = R11^-1 R12. Hence
+Numerical method: stack the regressor over random states into W (N n x p).
 
-    Y theta = Y P1 theta_1 + Y P2 theta_2 = Y P1 (theta_1 + Kd theta_2) = Y P1 beta,
-    beta = K theta,   K = P1^T + Kd P2^T   (r x p, the regrouping matrix)
+1. Rank: QR with column pivoting, W P = Q R; r counts the |R_ii| > tol |R_11| (a stated
+   tolerance, :data:`RANK_TOL`; the gap is kept in :attr:`BaseParameters.r_diag`).
+2. Which parameters to keep: a sweep in theta's own order (QR without pivoting), keeping each
+   column not in the span of the columns before it. theta lists the bodies from the base out, so
+   the parameters of the outer links regroup into those of the inner ones, as in the symbolic
+   rules of [GautierKhalil1990] (the pivoted order would pick columns by norm instead). Both
+   steps must find the same r.
+3. Regrouping: the dropped columns are combinations of the kept ones, W P2 = W P1 Kd (least
+   squares, exact to rounding, checked), hence
 
-and the base regressor is Y P1: the kept columns of Y. The base parameter beta_i is named after
-its kept standard parameter plus the regrouped ones, e.g. ``Izz2 + 0.1806 m3 + 0.85 mx3`` (the
-coefficients, rounded to 4 significant digits in the name only, carry lengths: m, m^2). The
-state sampling is seeded, so the same robot always gives the same base parameters.
+       Y theta = Y P1 theta_1 + Y P2 theta_2 = Y P1 (theta_1 + Kd theta_2) = Y P1 beta,
+       beta = K theta,   K = P1^T + Kd P2^T   (r x p, the regrouping matrix)
+
+   and the base regressor is Y P1, the kept columns of Y.
+
+Each base parameter is named after its kept standard parameter plus the regrouped ones, e.g.
+``Iyy2 + 0.1806 m3 + 0.1806 m4`` (coefficients rounded to 4 significant digits in the name only;
+they carry lengths, m or m^2, and the unit is the kept parameter's). The state sampling is seeded:
+the same robot always gives the same base parameters.
 
 :class:`BaseParameterModel` is the robot seen in base parameters: a :class:`RobotModel` whose
 theta is beta, so that every estimator and the exact LP/SDP bounds run on an identifiable vector.
@@ -50,7 +58,7 @@ class BaseParameters:
     """The regrouping beta = K theta of p standard parameters into r base parameters.
 
     K : (r, p)            regrouping matrix (K[:, independent] = identity)
-    independent : (r,)    indices of the kept standard parameters, in pivot order
+    independent : (r,)    indices of the kept standard parameters (P1), in theta's order
     names, units : (r,)   readable combination names and the units of the kept parameters
     tol : float           rank tolerance on |R_ii| / |R_11|
     r_diag : (p,)         |R_ii| / |R_11| of the pivoted QR (the gap shows how clear the rank is)
@@ -92,7 +100,7 @@ class BaseParameters:
 
 def base_parameters(robot: RobotModel, n_states: int | None = None, tol: float = RANK_TOL,
                     seed: int = 0) -> BaseParameters:
-    """Base parameters of ``robot`` by QR with column pivoting on its regressor at random states.
+    """Base parameters of ``robot`` from its regressor at random states (module docstring).
 
     Positions are uniform within ``robot.limits`` when the robot has them (clipped to [-pi, pi]),
     else in [-pi, pi]; velocities and accelerations uniform within the velocity and acceleration

@@ -200,8 +200,9 @@ def _load_chain(path: Path, joints: Sequence[str] | None) -> tuple[pin.Model, li
             raise InputError(f"joint {nm!r} of {path.name} is {what}; only fixed-base serial chains of revolute, "
                              "continuous and prismatic joints are supported. Fix the base in the URDF, or select "
                              "the arm's joints with joints=[...].")
-    if joints is None:
-        keep = names
+    if joints is None:  # every movable joint but the mimic ones (driven by another joint, not actuated)
+        mimic = {j.get("name") for j in root.iter("joint") if j.find("mimic") is not None}
+        keep = [nm for nm in names if nm not in mimic]
     else:
         keep = [str(j) for j in joints]
         unknown = [j for j in keep if j not in names]
@@ -223,8 +224,9 @@ class UrdfRobot(RobotModel):
     """A fixed-base serial arm read from a URDF with pinocchio; theta = URDF inertias + friction.
 
     source : path of a .urdf file, or a name of :data:`EXAMPLE_ROBOTS` (e.g. "ur5", "panda")
-    joints : names of the joints to keep, in chain order (default: every movable joint, or the
-        arm joints for the named robots); the others are locked at their neutral position
+    joints : names of the joints to keep (default: every movable joint but <mimic> ones, or the
+        arm joints for the named robots); the others are locked at their neutral position. The
+        model orders them along the chain (``joint_names``).
     viscous, coulomb : (n,) or scalar, true friction [N m s/rad, N m] (default: the URDF's
         <dynamics damping=... friction=...>, 0 when absent)
     with_armature, armature : add the armature parameters Ia_j, true values [kg m^2] (default 0)
