@@ -11,3 +11,16 @@ from boundid.models.h4 import H4Robot, H4Structural, H4Truth  # noqa: E402
 from boundid.models.h4_kinematics import H4Geometry  # noqa: E402
 
 __all__ += ["H4Geometry", "H4Robot", "H4Structural", "H4Truth"]
+from boundid.models.base_parameters import BaseParameterModel, BaseParameters, base_parameters  # noqa: E402
+from boundid.models.limits import JointLimits  # noqa: E402
+
+__all__ += ["BaseParameterModel", "BaseParameters", "JointLimits", "UrdfRobot", "base_parameters"]
+
+
+def __getattr__(name: str):
+    """``UrdfRobot`` is imported on first use: pinocchio takes ~0.5 s to import."""
+    if name == "UrdfRobot":
+        from boundid.models.urdf import UrdfRobot
+
+        return UrdfRobot
+    raise AttributeError(f"module 'boundid.models' has no attribute {name!r}")

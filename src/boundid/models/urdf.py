@@ -1,0 +1,491 @@
+"""Serial arms from a URDF, through pinocchio [Pinocchio]: regressors, dynamics and limits.
+
+A :class:`UrdfRobot` is built from a URDF file or from the name of a robot shipped by the
+``example-robot-data`` package (``"ur5"``, ``"panda"``, ...: :data:`EXAMPLE_ROBOTS`). Links joined
+by fixed joints are merged into one rigid body by pinocchio's parser; joints left out of ``joints=``
+(e.g. the Panda's fingers) are locked at a reference configuration and merged the same way. Every
+remaining joint must be a 1-dof revolute (also continuous) or prismatic joint, and the joints must
+form one serial chain from the fixed base.
+
+Parameters theta (p,), in this order:
+
+    10 per body j = 1..n, pinocchio's order, about the origin of joint j's frame (the child
+        link's frame), expressed in it:  m, m cx, m cy, m cz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz
+        (I = I_C + m S(c)^T S(c), with I_C about the centre of mass c)
+    Ia_j    armature (motor inertia seen at the joint), only with ``with_armature=True``
+    fv_j    viscous friction
+    fc_j    Coulomb friction (sign(qd) in the identification model)
+    off_j   torque offset, only with ``with_offset=True``
+
+    tau = M(q) qdd + C(q, qd) qd + g(q) + Ia qdd + fv qd + fc sign(qd) + off
+
+Regressors (all batched over N samples, shapes as in :mod:`boundid.models.base`):
+
+- inverse dynamics ``pin.computeJointTorqueRegressor`` [Pinocchio], plus the joint-wise columns;
+- momentum (the filtered dynamic model): M(q) qd is the torque that accelerates the robot at rest
+  by qd without gravity, so Ya(q, qd) = Y_{g=0}(q, 0, qd), the torque regressor of a gravity-free
+  copy of the model;
+- remainder: by Lagrange's equation tau = d/dt(dK/dqd) - dK/dq + dU/dq + f, with M qd = dK/dqd,
+  Yb theta = g(q) - dK/dq + f(qd) (+ off); g is the torque regressor at (q, 0, 0). The gradient of
+  K comes from the subtree momenta: with S_j the axis of joint j, v_j the spatial velocity of body
+  j and h_j = sum_{i >= j} I_i v_i the momentum of the bodies joint j carries (world frame, linear
+  in theta: h_i = G_i(q, qd) theta_i),
+
+      dK/dq_j = (v_j x S_j)^T h_j
+
+  (turning joint j by e moves the bodies i >= j rigidly by the twist e S_j; the derivative of
+  1/2 sum v_i^T I_i v_i is then -(S_j x v_j)^T h_j). dK/dq = C^T qd for pinocchio's Coriolis matrix,
+  checked in tests/test_urdf.py, with finite differences of the kinetic energy;
+- energy ``pin.computeKineticEnergyRegressor`` + ``computePotentialEnergyRegressor`` (+ Ia qd^2 / 2),
+  potential energy U = -sum_i m_i g . c_i, zero at the world origin;
+- friction power qd^T (fv qd + fc sign qd + off) = fv qd^2 + fc |qd| + off qd (the offset's power
+  is not dissipated, but it belongs to the same side of the power balance).
+
+Mass matrix by CRBA, bias torque by RNEA at zero acceleration, forward dynamics by ABA, each with
+pinocchio's model rebuilt from theta (the body masses must then be > 0).
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import math
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from boundid._validation import as_float_array, as_vector
+from boundid.errors import InputError
+from boundid.models.base import RobotModel, coulomb
+from boundid.models.limits import JointLimits
+
+#: Fixed-base arms of ``example-robot-data``: name -> (URDF path under its ``robots`` folder,
+#: default joint selection, None for every movable joint).
+EXAMPLE_ROBOTS: dict[str, tuple[str, tuple[str, ...] | None]] = {
+    "ur3": ("ur_description/urdf/ur3_robot.urdf", None),
+    "ur5": ("ur_description/urdf/ur5_robot.urdf", None),
+    "ur10": ("ur_description/urdf/ur10_robot.urdf", None),
+    "panda": ("panda_description/urdf/panda.urdf", tuple(f"panda_joint{i}" for i in range(1, 8))),
+    "kinova": ("kinova_description/robots/kinova.urdf", None),
+    "xarm7": ("xarm_description/urdf/xarm7.urdf", None),
+    "z1": ("z1_description/urdf/z1.urdf", tuple(f"joint{i}" for i in range(1, 7))),
+    "so100": ("so_arm_description/urdf/so100.urdf",
+              ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll")),
+    "so101": ("so_arm_description/urdf/so101.urdf",
+              ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll")),
+    "double_pendulum": ("double_pendulum_description/urdf/double_pendulum.urdf", None),
+}
+
+#: Names of the 10 inertial parameters of a body, pinocchio's order (suffixed with the joint number).
+INERTIAL_NAMES = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
+INERTIAL_UNITS = ("kg", "kg m", "kg m", "kg m", "kg m^2", "kg m^2", "kg m^2", "kg m^2", "kg m^2", "kg m^2")
+
+#: Rule for the acceleration limit URDFs do not carry: this many times the velocity limit, per
+#: second (the velocity limit is reached from rest in 0.2 s). Override with ``acceleration_limit``.
+ACCELERATION_PER_VELOCITY = 5.0  # 1/s
+
+
+def example_robots_dir() -> Path:
+    """The ``robots`` folder of the installed ``example-robot-data`` package."""
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        raise InputError("the example-robot-data package is not installed; run `make install` (or pip install "
+                         "example-robot-data), or give the path of a URDF file instead of a robot name.") from None
+    folder = Path(dist.locate_file("cmeel.prefix/share/example-robot-data/robots"))
+    if not folder.is_dir():
+        raise InputError(f"example-robot-data is installed but its robots folder {folder} is missing; reinstall it.")
+    return folder
+
+
+def resolve_urdf(source: str | Path) -> tuple[Path, tuple[str, ...] | None, str]:
+    """(URDF path, default joint selection, short name) of a path or an :data:`EXAMPLE_ROBOTS` name."""
+    text = str(source)
+    if text in EXAMPLE_ROBOTS:
+        rel, joints = EXAMPLE_ROBOTS[text]
+        return example_robots_dir() / rel, joints, text
+    path = Path(text).expanduser()
+    if path.suffix.lower() == ".urdf" or path.exists() or "/" in text:
+        if not path.is_file():
+            raise InputError(f"URDF file {path} not found; check the path (robot names are {sorted(EXAMPLE_ROBOTS)}).")
+        return path, None, path.stem
+    raise InputError(f"unknown robot {text!r}: give the path of a .urdf file or one of the example-robot-data "
+                     f"arms {sorted(EXAMPLE_ROBOTS)}.")
+
+
+def link_inertial_parameters(inertial: ET.Element | None, link: str) -> np.ndarray:
+    """Dynamic parameters (10,) about the link frame of a URDF <inertial> element (zeros if absent or massless).
+
+    Every number is checked here: urdfdom only prints a console message for a malformed one and
+    loads the link with a zero inertia.
+    """
+    if inertial is None:
+        return np.zeros(10)
+
+    def numbers(tag: str, attr: str, default: str, size: int) -> np.ndarray:
+        e = inertial.find(tag)
+        text = default if e is None else e.get(attr, default)
+        try:
+            v = np.array(text.split(), float)
+        except ValueError:
+            v = np.array([])
+        if v.shape != (size,) or not np.all(np.isfinite(v)):
+            raise InputError(f"link {link!r}: <{tag} {attr}={text!r}> must be {size} finite number(s); fix the URDF.")
+        return v
+
+    xyz, rpy = numbers("origin", "xyz", "0 0 0", 3), numbers("origin", "rpy", "0 0 0", 3)
+    m = numbers("mass", "value", "0", 1)[0]
+    g = {k: numbers("inertia", k, "0", 1)[0] for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+    if m == 0.0:
+        return np.zeros(10)
+    I_c = np.array([[g["ixx"], g["ixy"], g["ixz"]], [g["ixy"], g["iyy"], g["iyz"]], [g["ixz"], g["iyz"], g["izz"]]])
+    body = pin.SE3(pin.rpy.rpyToMatrix(rpy), xyz).act(pin.Inertia(m, np.zeros(3), I_c))
+    return body.toDynamicParameters()
+
+
+def _per_joint(x, what: str, n: int, default, signed: bool = False) -> np.ndarray:
+    """(n,) values from a scalar or one per joint (``default`` when x is None); >= 0 unless ``signed``."""
+    if x is None:
+        return np.asarray(default, float).copy()
+    v = as_float_array(x, what)
+    if v.ndim == 0:
+        v = np.full(n, float(v))
+    if v.shape != (n,) or np.any(np.isnan(v)) or (not signed and np.any(v < 0)):
+        raise InputError(f"{what} must be one value or one per joint ({n}), {'' if signed else '>= 0, '}"
+                         f"got {x!r}.")
+    return v.copy()
+
+
+def _joint_kind(jmodel) -> str:
+    """'revolute', 'continuous' or 'prismatic' for a 1-dof joint; pinocchio's type name for any other."""
+    short = jmodel.shortname()
+    if jmodel.nv != 1 or "Mimic" in short:
+        return short
+    if "Prismatic" in short or short.startswith("JointModelP"):
+        return "prismatic"
+    if "Unbounded" in short or short.startswith("JointModelRUB"):
+        return "continuous"
+    return "revolute" if "Revolute" in short or short.startswith("JointModelR") else short
+
+
+def _load_chain(path: Path, joints: Sequence[str] | None) -> tuple[pin.Model, list[str]]:
+    """The pinocchio model of the selected serial chain (other joints locked at their neutral value)."""
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise InputError(f"{path} is not well-formed XML ({exc}); fix the URDF.") from None
+    for link in root.iter("link"):
+        link_inertial_parameters(link.find("inertial"), link.get("name"))
+    parent_joints: dict[str, list[str]] = {}
+    for joint in root.iter("joint"):
+        child = joint.find("child")
+        if child is not None:
+            parent_joints.setdefault(child.get("link"), []).append(joint.get("name"))
+    loops = {link: js for link, js in parent_joints.items() if len(js) > 1}
+    if loops:
+        raise InputError(f"{path.name} describes a closed kinematic chain (link(s) with several parent joints: "
+                         f"{loops}); URDF robots must be trees, and boundid takes serial chains only. A parallel "
+                         "robot needs a hand-written model like the H4's.")
+    try:
+        full = pin.buildModelFromUrdf(str(path))
+    except (RuntimeError, ValueError) as exc:
+        raise InputError(f"pinocchio could not read {path} as a URDF ({exc}); fix the file.") from None
+    names = list(full.names)[1:]
+    for j, nm in enumerate(names, start=1):
+        kind = _joint_kind(full.joints[j])
+        if kind not in ("revolute", "continuous", "prismatic") and (joints is None or nm in joints):
+            what = "a floating base" if "FreeFlyer" in kind else f"a {kind} joint"
+            raise InputError(f"joint {nm!r} of {path.name} is {what}; only fixed-base serial chains of revolute, "
+                             "continuous and prismatic joints are supported. Fix the base in the URDF, or select "
+                             "the arm's joints with joints=[...].")
+    if joints is None:  # every movable joint but the mimic ones (driven by another joint, not actuated)
+        mimic = {j.get("name") for j in root.iter("joint") if j.find("mimic") is not None}
+        keep = [nm for nm in names if nm not in mimic]
+    else:
+        keep = [str(j) for j in joints]
+        unknown = [j for j in keep if j not in names]
+        if unknown or len(set(keep)) != len(keep) or not keep:
+            raise InputError(f"joints={keep} must be distinct names among the movable joints of {path.name}: "
+                             f"{names}" + (f" (unknown: {unknown})" if unknown else "") + ".")
+    lock = [full.getJointId(nm) for nm in names if nm not in keep]
+    model = pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full
+    chain = list(model.names)[1:]
+    parents = list(model.parents)[1:]
+    if any(parents[k] != k for k in range(len(chain))):
+        branches = [f"{chain[k]} <- {model.names[parents[k]]}" for k in range(len(chain))]
+        raise InputError(f"the joints of {path.name} do not form one serial chain ({', '.join(branches)}); select "
+                         "one chain with joints=[...].")
+    return model, chain
+
+
+class UrdfRobot(RobotModel):
+    """A fixed-base serial arm read from a URDF with pinocchio; theta = URDF inertias + friction.
+
+    source : path of a .urdf file, or a name of :data:`EXAMPLE_ROBOTS` (e.g. "ur5", "panda")
+    joints : names of the joints to keep (default: every movable joint but <mimic> ones, or the
+        arm joints for the named robots); the others are locked at their neutral position. The
+        model orders them along the chain (``joint_names``).
+    viscous, coulomb : (n,) or scalar, true friction [N m s/rad, N m] (default: the URDF's
+        <dynamics damping=... friction=...>, 0 when absent)
+    with_armature, armature : add the armature parameters Ia_j, true values [kg m^2] (default 0)
+    with_offset, offset : add the torque offsets off_j, true values [N m] (default 0)
+    gravity : (3,) m/s^2 in the base frame (default (0, 0, -9.81))
+    velocity_limit, acceleration_limit : (n,) or scalar overrides of the URDF velocity limit and of
+        the acceleration rule (:data:`ACCELERATION_PER_VELOCITY` x velocity limit)
+    name : short identifier (default: the robot name or the file's stem)
+
+    ``theta_true`` and ``theta_prior`` are both the URDF values plus the friction given (a designer
+    who knows the CAD model). ``limits`` holds the :class:`JointLimits` read from the URDF: a
+    limit the file does not give is inf (position limits 0, 0 are urdfdom's default for "none").
+    """
+
+    def __init__(self, source: str | Path, joints: Sequence[str] | None = None, *, viscous=None, coulomb=None,
+                 with_armature: bool = False, armature=None, with_offset: bool = False, offset=None,
+                 gravity=None, velocity_limit=None, acceleration_limit=None, name: str | None = None):
+        path, default_joints, default_name = resolve_urdf(source)
+        self.urdf_path = path
+        self._model, chain = _load_chain(path, default_joints if joints is None else joints)
+        self.joint_names = tuple(chain)
+        model, n = self._model, self._model.nv
+        self.name = default_name if name is None else str(name)
+        self.n_joints = n
+        if gravity is not None:
+            model.gravity = pin.Motion(np.concatenate([as_vector(gravity, "gravity", 3), np.zeros(3)]))
+        self.link_names = tuple(model.frames[f].name for f in self._body_frames())
+        kinds = [_joint_kind(model.joints[j]) for j in range(1, n + 1)]
+        self.joint_kinds = tuple(kinds)
+        prismatic = [k == "prismatic" for k in kinds]
+
+        # configuration map: a continuous joint's angle is stored by pinocchio as (cos, sin)
+        self._idx_q = np.array([model.joints[j].idx_q for j in range(1, n + 1)])
+        self._unbounded = np.array([k == "continuous" for k in kinds])
+
+        fv = _per_joint(viscous, "viscous", n, model.damping)
+        fc = _per_joint(coulomb, "coulomb", n, model.friction)
+        self.with_armature, self.with_offset = bool(with_armature), bool(with_offset)
+        if armature is not None and not with_armature:
+            raise InputError("armature values given without with_armature=True; set the flag to identify them.")
+        if offset is not None and not with_offset:
+            raise InputError("offset values given without with_offset=True; set the flag to identify them.")
+        ia = _per_joint(armature, "armature", n, np.zeros(n))
+        off = _per_joint(offset, "offset", n, np.zeros(n), signed=True)
+        model.armature = ia.copy()
+
+        # parameter layout: [10 n inertial | Ia | fv | fc | off]
+        names, units = [], []
+        for j in range(1, n + 1):
+            names += [f"{s}{j}" for s in INERTIAL_NAMES]
+            units += list(INERTIAL_UNITS)
+        blocks = [("Ia", self.with_armature, ("kg", "kg m^2")), ("fv", True, ("N s/m", "N m s/rad")),
+                  ("fc", True, ("N", "N m")), ("off", self.with_offset, ("N", "N m"))]
+        self._slices, start = {}, 10 * n
+        for key, on, (u_pr, u_rev) in blocks:
+            if on:
+                self._slices[key] = slice(start, start + n)
+                start += n
+                names += [f"{key}{j}" for j in range(1, n + 1)]
+                units += [u_pr if pr else u_rev for pr in prismatic]
+        self.param_names, self.param_units = tuple(names), tuple(units)
+        inertial = np.concatenate([model.inertias[j].toDynamicParameters() for j in range(1, n + 1)])
+        values = {"Ia": ia, "fv": fv, "fc": fc, "off": off}
+        self.theta_true = np.concatenate([inertial] + [values[k] for k in self._slices])
+        self.theta_prior = self.theta_true.copy()
+        self.limits = self._read_limits(velocity_limit, acceleration_limit)
+
+        self._data = model.createData()
+        self._still = pin.Model(model)  # the same chain without gravity, for the momentum regressor
+        self._still.gravity = pin.Motion.Zero()
+        self._still_data = self._still.createData()
+        self._dyn_key: np.ndarray | None = None
+        self._dyn: tuple[pin.Model, object] | None = None
+        self._fast_theta: list[float] | None = None
+
+    # -- construction helpers ------------------------------------------------------------
+    def _body_frames(self) -> list[int]:
+        """Index of the frame of the link carried by each joint (its child link)."""
+        model = self._model
+        out = []
+        for j in range(1, model.njoints):
+            frames = [f for f in range(model.nframes)
+                      if model.frames[f].parentJoint == j and model.frames[f].type == pin.FrameType.BODY]
+            out.append(frames[0])
+        return out
+
+    def _read_limits(self, velocity_limit, acceleration_limit) -> JointLimits:
+        model, n = self._model, self.n_joints
+        iv = np.arange(n)
+        lo = np.where(self._unbounded, -np.inf, model.lowerPositionLimit[self._idx_q])
+        hi = np.where(self._unbounded, np.inf, model.upperPositionLimit[self._idx_q])
+        unset = (np.abs(lo) > 1e10) | (np.abs(hi) > 1e10) | ((lo == 0) & (hi == 0))  # urdfdom's 0, 0: not given
+        lo, hi = np.where(unset, -np.inf, lo), np.where(unset, np.inf, hi)
+        vel = model.velocityLimit[iv].astype(float)
+        vel = _per_joint(velocity_limit, "velocity_limit", n, np.where(vel > 0, vel, np.inf))
+        acc = _per_joint(acceleration_limit, "acceleration_limit", n, ACCELERATION_PER_VELOCITY * vel)
+        eff = model.effortLimit[iv].astype(float)
+        return JointLimits(lo, hi, vel, acc, np.where(eff > 0, eff, np.inf))
+
+    def _config(self, q: np.ndarray) -> np.ndarray:
+        """pinocchio configurations (N, nq) of joint positions q (N, n)."""
+        Q = np.empty((q.shape[0], self._model.nq))
+        bounded = ~self._unbounded
+        Q[:, self._idx_q[bounded]] = q[:, bounded]
+        Q[:, self._idx_q[self._unbounded]] = np.cos(q[:, self._unbounded])
+        Q[:, self._idx_q[self._unbounded] + 1] = np.sin(q[:, self._unbounded])
+        return Q
+
+    def _joint_columns(self, Y: np.ndarray, cols: dict[str, np.ndarray]) -> np.ndarray:
+        """Write the per-joint columns ``cols[key]`` (N, n) into Y (N, n, p) on the diagonal of block key."""
+        j = np.arange(self.n_joints)
+        for key, val in cols.items():
+            if key in self._slices:
+                Y[:, j, self._slices[key].start + j] = val
+        return Y
+
+    def _empty(self, N: int) -> np.ndarray:
+        return np.zeros((N, self.n_joints, self.p))
+
+    # -- regressors ----------------------------------------------------------------------
+    def regressor(self, q, qd, qdd) -> np.ndarray:
+        """Y (N, n, p): tau = Y theta, inertial part by ``pin.computeJointTorqueRegressor``."""
+        (q, qd, qdd), _ = self._states(q, qd, qdd)
+        Q, n = self._config(q), self.n_joints
+        Y = self._empty(q.shape[0])
+        for k in range(q.shape[0]):
+            Y[k, :, :10 * n] = pin.computeJointTorqueRegressor(self._model, self._data, Q[k], qd[k], qdd[k])
+        return self._joint_columns(Y, {"Ia": qdd, "fv": qd, "fc": np.sign(qd), "off": np.ones_like(qd)})
+
+    def _kinetic_gradient(self, q, qd) -> np.ndarray:
+        """dK/dq regressor, inertial block (N, n, 10 n): (v_j x S_j)^T h_j (module docstring)."""
+        Q, n = self._config(q), self.n_joints
+        N = q.shape[0]
+        model, data = self._model, self._data
+        S = np.empty((N, n, 6))          # joint axes, world frame (pinocchio's spatial convention)
+        V = np.empty((N, n, 6))          # body velocities, world frame
+        G = np.empty((N, n, 6, 10))      # h_i = G_i theta_i, world frame
+        zero = pin.Motion.Zero()
+        for k in range(N):
+            pin.forwardKinematics(model, data, Q[k], qd[k])
+            S[k] = pin.computeJointJacobians(model, data).T
+            for i in range(1, n + 1):
+                oMi, vi = data.oMi[i], data.v[i]
+                V[k, i - 1] = oMi.act(vi).vector
+                G[k, i - 1] = oMi.toDualActionMatrix() @ pin.bodyRegressor(zero, vi)
+        # motion cross product (v, w) x (s_lin, s_ang) = (w x s_lin + v x s_ang, w x s_ang)
+        v_lin, w_ang = V[..., :3], V[..., 3:]
+        vxS = np.concatenate([np.cross(w_ang, S[..., :3]) + np.cross(v_lin, S[..., 3:]),
+                              np.cross(w_ang, S[..., 3:])], axis=-1)
+        carries = np.triu(np.ones((n, n)))[None, :, :, None]    # body i is carried by joint j iff i >= j
+        return (np.einsum("Nja,Niak->Njik", vxS, G) * carries).reshape(N, n, 10 * n)
+
+    def momentum_regressor(self, q, qd) -> np.ndarray:
+        """Ya (N, n, p): M(q) qd = Ya theta, the gravity-free torque regressor at (q, 0, qd) (plus Ia qd)."""
+        (q, qd), _ = self._states(q, qd)
+        Q, n = self._config(q), self.n_joints
+        Y = self._empty(q.shape[0])
+        zero = np.zeros(n)
+        for k in range(q.shape[0]):
+            Y[k, :, :10 * n] = pin.computeJointTorqueRegressor(self._still, self._still_data, Q[k], zero, qd[k])
+        return self._joint_columns(Y, {"Ia": qd})
+
+    def remainder_regressor(self, q, qd) -> np.ndarray:
+        """Yb (N, n, p) = g(q) - dK/dq + friction (+ offset), so that Y theta = d/dt(Ya theta) + Yb theta."""
+        (q, qd), _ = self._states(q, qd)
+        Q, n = self._config(q), self.n_joints
+        Y = self._empty(q.shape[0])
+        Y[:, :, :10 * n] = -self._kinetic_gradient(q, qd)
+        zero = np.zeros(n)
+        for k in range(q.shape[0]):
+            Y[k, :, :10 * n] += pin.computeJointTorqueRegressor(self._model, self._data, Q[k], zero, zero)
+        return self._joint_columns(Y, {"fv": qd, "fc": np.sign(qd), "off": np.ones_like(qd)})
+
+    def energy_regressor(self, q, qd) -> np.ndarray:
+        """phi_H (N, p): H = K + U = phi_H theta (pinocchio's kinetic and potential energy regressors)."""
+        (q, qd), _ = self._states(q, qd)
+        Q, n = self._config(q), self.n_joints
+        phi = np.zeros((q.shape[0], self.p))
+        for k in range(q.shape[0]):
+            phi[k, :10 * n] = (pin.computeKineticEnergyRegressor(self._model, self._data, Q[k], qd[k])
+                               + pin.computePotentialEnergyRegressor(self._model, self._data, Q[k]))
+        if "Ia" in self._slices:
+            phi[:, self._slices["Ia"]] = 0.5 * qd ** 2
+        return phi
+
+    def friction_power_regressor(self, qd) -> np.ndarray:
+        """phi_f (N, p): qd^T (fv qd + fc sign qd + off) = phi_f theta."""
+        (qd,), _ = self._states(qd, names=("qd",))
+        phi = np.zeros((qd.shape[0], self.p))
+        for key, val in (("fv", qd ** 2), ("fc", np.abs(qd)), ("off", qd)):
+            if key in self._slices:
+                phi[:, self._slices[key]] = val
+        return phi
+
+    # -- dynamics with pinocchio's algorithms -------------------------------------------------
+    def _dynamics(self, theta) -> tuple[pin.Model, object]:
+        """pinocchio model and data with the inertias and armature of theta (cached for the last theta)."""
+        th = self._theta(theta)
+        if self._dyn_key is not None and np.array_equal(th, self._dyn_key):
+            return self._dyn
+        n = self.n_joints
+        model = pin.Model(self._model)
+        for j in range(1, n + 1):
+            pi = th[10 * (j - 1):10 * j]
+            if not pi[0] > 0:
+                raise InputError(f"body {j} ({self.link_names[j - 1]}) has mass {pi[0]:.4g} kg in theta; pinocchio's "
+                                 "CRBA/RNEA/ABA need positive masses. Use the regressor (Y theta) for such a theta.")
+            model.inertias[j] = pin.Inertia.FromDynamicParameters(pi)
+        model.armature = th[self._slices["Ia"]].copy() if "Ia" in self._slices else np.zeros(n)
+        self._dyn_key, self._dyn = th.copy(), (model, model.createData())
+        return self._dyn
+
+    def _joint_torque(self, qd: np.ndarray, th: np.ndarray, coulomb_width: float) -> np.ndarray:
+        """Friction and offset torques (N, n) for parameters th."""
+        tau = th[self._slices["fv"]] * qd + th[self._slices["fc"]] * coulomb(qd, coulomb_width)
+        if "off" in self._slices:
+            tau = tau + th[self._slices["off"]]
+        return tau
+
+    def mass_matrix(self, q, theta=None) -> np.ndarray:
+        """M(q) (N, n, n) by CRBA (armature on the diagonal)."""
+        (q,), _ = self._states(q, names=("q",))
+        model, data = self._dynamics(theta)
+        Q = self._config(q)
+        M = np.empty((q.shape[0], self.n_joints, self.n_joints))
+        for k in range(q.shape[0]):
+            U = np.triu(pin.crba(model, data, Q[k]))
+            M[k] = U + np.triu(U, 1).T
+        return M
+
+    def bias_torque(self, q, qd, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
+        """C(q, qd) qd + g(q) (RNEA at zero acceleration) + friction (+ offset), (N, n)."""
+        (q, qd), _ = self._states(q, qd)
+        th = self._theta(theta)
+        model, data = self._dynamics(th)
+        Q = self._config(q)
+        b = np.array([pin.nonLinearEffects(model, data, Q[k], qd[k]).copy() for k in range(q.shape[0])])
+        return b.reshape(q.shape) + self._joint_torque(qd, th, coulomb_width)
+
+    def forward_dynamics(self, q, qd, tau, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
+        """qdd (N, n) by ABA on tau minus friction (and offset)."""
+        (q, qd, tau), _ = self._states(q, qd, tau, names=("q", "qd", "tau"))
+        th = self._theta(theta)
+        model, data = self._dynamics(th)
+        Q, u = self._config(q), tau - self._joint_torque(qd, th, coulomb_width)
+        return np.array([pin.aba(model, data, Q[k], qd[k], u[k]).copy() for k in range(q.shape[0])]).reshape(q.shape)
+
+    def fast_acceleration(self, q, qd, u, theta, coulomb_width: float) -> list[float]:
+        """qdd for ONE state (plain sequences), no input checks: ABA, for the simulator's inner loop."""
+        theta = list(theta)
+        if theta != self._fast_theta:  # the simulator passes the same values at every call: cache their parts
+            th = np.asarray(theta, float)
+            model, data = self._dynamics(th)
+            off = th[self._slices["off"]] if "off" in self._slices else np.zeros(self.n_joints)
+            self._fast_theta = theta
+            self._fast = (model, data, th[self._slices["fv"]].tolist(), th[self._slices["fc"]].tolist(), off.tolist())
+        model, data, fv, fc, off = self._fast
+        w = coulomb_width
+        rhs = [ui - b * v - c * (math.tanh(v / w) if w > 0 else (v > 0) - (v < 0)) - o
+               for ui, v, b, c, o in zip(u, qd, fv, fc, off, strict=True)]
+        Q = self._config(np.array([q], float))[0] if self._unbounded.any() else np.array(q, float)
+        return pin.aba(model, data, Q, np.array(qd, float), np.array(rhs)).tolist()
