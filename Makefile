@@ -3,8 +3,9 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
-# two workers: the machines have 2 cores
-PYTEST := $(BIN)/pytest -n 2 -q
+# two workers: the machines have 2 cores; one BLAS/numba thread each, or they oversubscribe them
+THREADS := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 NUMBA_NUM_THREADS=1
+PYTEST := $(THREADS) $(BIN)/pytest -n 2 -q
 
 .PHONY: install test test-all bench report lint teach campaign test-browser clean
 
