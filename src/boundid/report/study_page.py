@@ -177,11 +177,11 @@ def _exact_section(page: Page, r: StudyResult, guard: _Guard) -> None:
     for what, msg in ex.errors.items():
         page.text(f"{what}: {msg}.")
     sets = {lab: e for (lab, rn), e in r.estimates.items() if rn == ex.regression and e.ellipsoid is not None}
-    if ex.bounds is not None:
+    compared = {**{lab: e.intervals for lab, e in sets.items() if e.guaranteed},
+                **{f"SDP {k}": v.ellipsoid.intervals() for k, v in ex.sdp.items()}}
+    if ex.bounds is not None and compared:
         with guard("figure", "width ratios"):
-            w = widths(names, {"LP exact": (ex.bounds.lo, ex.bounds.hi),
-                               **{lab: e.intervals for lab, e in sets.items() if e.guaranteed},
-                               **{f"SDP {k}": v.ellipsoid.intervals() for k, v in ex.sdp.items()}})
+            w = widths(names, {"LP exact": (ex.bounds.lo, ex.bounds.hi), **compared})
             page.figure(F.width_ratios(w), "Per-parameter interval width over the exact LP width (1 = exact).",
                         name="width_ratios")
     logv = {lab: e.ellipsoid.log_volume() / m.p for lab, e in sets.items() if e.guaranteed}

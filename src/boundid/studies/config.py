@@ -227,6 +227,8 @@ def _check_size(cfg: StudyConfig, model) -> None:
     if exp.source != "simulate":
         return  # a recording is checked when it is read (boundid.studies.data)
     h, where = exp.sample_period_s, f"{cfg.file}: experiment"
+    if "inverse_dynamic" in cfg.regressions or exp.control == "closed_loop":
+        sizing.check_cutoff(h, pp.lowpass_cutoff_hz, pp.decimation, f"{cfg.file}: preprocessing.lowpass_cutoff_hz")
     sizing.check_length(exp.duration_s, h, model.n_joints, model.p, cfg.regressions, pp.lowpass_cutoff_hz,
                         pp.decimation, f"{where}.duration_s")
     duration = exp.duration_s

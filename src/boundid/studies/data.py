@@ -39,6 +39,8 @@ def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> St
             raise StudyError(f"{cfg.file}: the recording has {rec.n_joints} joints, the {model.name} model "
                              f"{model.n_joints}; map one q and one tau column per joint.")
         pp, where = cfg.preprocessing, f"{cfg.file}: the recording {m.file.name}"
+        if "inverse_dynamic" in cfg.regressions:
+            sizing.check_cutoff(rec.h, pp.lowpass_cutoff_hz, pp.decimation, f"{where} at h = {rec.h:g} s")
         sizing.check_budget(rec.t.size, rec.n_joints, model.p, len(cfg.regressions), where)
         sizing.check_length(float(rec.t[-1] - rec.t[0]), rec.h, model.n_joints, model.p, cfg.regressions,
                             pp.lowpass_cutoff_hz, pp.decimation, f"{where} ({rec.t.size} samples)")

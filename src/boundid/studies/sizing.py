@@ -97,6 +97,15 @@ def minimum_duration(h: float, n_joints: int, p: int, regressions, lowpass_cutof
     return out
 
 
+def check_cutoff(h: float, lowpass_cutoff_hz: float | None, decimation: int, where: str) -> None:
+    """StudyError when the inverse dynamic model's low-pass cut-off (also its decimation filter's)
+    is not below the Nyquist frequency of its rows, 0.5 / (h x decimation)."""
+    nyquist = 0.5 / (h * decimation)
+    if lowpass_cutoff_hz is not None and lowpass_cutoff_hz >= nyquist:
+        raise StudyError(f"{where}: {lowpass_cutoff_hz:g} Hz must be below {nyquist:g} Hz, the Nyquist frequency of "
+                         "the decimated rows (0.5 / (sample period x decimation)); lower it or the decimation.")
+
+
 def check_length(duration_s: float, h: float, n_joints: int, p: int, regressions, lowpass_cutoff_hz: float | None,
                  decimation: int, where: str) -> None:
     """StudyError when an experiment of ``duration_s`` s at period ``h`` is too short for a regression model."""
