@@ -218,6 +218,31 @@ def test_in_process_campaign_resumes_and_summary(tmp_path, cfg):
         assert s.loc[(sc, "OBE-standard"), "failed"] == failed.loc[failed.scenario == sc, "replicate"].nunique()
 
 
+def test_unreadable_replicate_is_named_set_aside_and_recomputed(tmp_path, cfg, capsys):
+    """`boundid campaign` meeting a truncated replicate file (a disk that filled up, a copy cut
+    short) names it in one warning line, moves it to <name>.corrupt and computes it again; the
+    recomputed rows equal the original ones (same seed: the reference), the others are untouched."""
+    from boundid.cli import main
+
+    argv = ["campaign", str(cfg.file), "--replicates", "2", "--workers", "0", "--out", str(tmp_path), "--quiet"]
+    assert main(argv) == 0
+    data = tmp_path / cfg.name / "campaign" / "data"
+    path = replicate_path(data, "study", config_hash(campaign_config(cfg, load_campaign(cfg).scenarios[0])), 1)
+    before, original = _files(data), pd.read_parquet(path)
+    path.write_bytes(path.read_bytes()[:200])
+    capsys.readouterr()
+    assert main(argv) == 0
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"boundid: warning: replicate file {path} cannot be read (ArrowInvalid: ")
+    assert line.endswith(f"moved to {path}.corrupt and computed again.")
+    assert Path(f"{path}.corrupt").stat().st_size == 200
+    timing = ["time_s", "replicate_time_s"]
+    pd.testing.assert_frame_equal(pd.read_parquet(path).drop(columns=timing), original.drop(columns=timing))
+    assert {k: v for k, v in _files(data).items() if k != path.name and k.endswith(".parquet")} == {
+        k: v for k, v in before.items() if k != path.name}
+    assert (tmp_path / cfg.name / "campaign" / "index.html").is_file()
+
+
 def test_measured_study_is_refused(cfg):
     """A campaign re-draws simulated noise: a measured-data study is refused with a StudyError."""
     measured = replace(cfg, experiment=replace(cfg.experiment, source="measured"))

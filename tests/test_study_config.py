@@ -7,7 +7,7 @@ import pytest
 
 from boundid.errors import InputError, StudyError
 from boundid.experiments.recording import Recording, read_recording, write_recording
-from boundid.studies.config import load_study
+from boundid.studies.config import REGRESSIONS, load_study
 
 STUDIES = sorted((Path(__file__).parents[1] / "studies").glob("*.toml"))
 
@@ -100,3 +100,92 @@ def test_obe_bound_must_match_the_exact_polytope(tmp_path):
                       '[exact]\nregression = "inverse_dynamic"\ne_max = 3.0\n')
     with pytest.raises(StudyError, match=r"exact\.e_max: is 3.0 but estimator 'OBE'"):
         load_study(_write(tmp_path, text))
+
+
+def test_options_tables_are_typed_by_their_defaults(tmp_path):
+    """robot.options and experiment.options take the type of each option's default (a float
+    default accepts an integer, a tuple default a list of that length, returned as a tuple);
+    values the model refuses are refused when the study is read, naming robot.options."""
+    toy = MINIMAL.replace('model = "direct_drive"', 'model = "linear_toy"\noptions = { m = 2, l = 0.25 }')
+    cfg = load_study(_write(tmp_path, toy))
+    assert cfg.robot_options == {"m": 2.0, "l": 0.25} and isinstance(cfg.robot_options["m"], float)
+    h4 = MINIMAL.replace('model = "direct_drive"', 'model = "h4"\noptions = { home = [0, 0, -0.7, 0] }')
+    assert load_study(_write(tmp_path, h4)).robot_options == {"home": (0.0, 0.0, -0.7, 0.0)}
+    for options, match in [("{ home = [0, 0, -0.7] }", r"robot\.options\.home: must be a list of 4 numbers"),
+                           ('{ axes = ["+y", "-y", "+x", 4] }', r"robot\.options\.axes: must be a list of 4 strings"),
+                           ("{ L = -0.3 }", r"robot\.options for h4: H4Geometry\.L must be a positive length")]:
+        text = MINIMAL.replace('model = "direct_drive"', f'model = "h4"\noptions = {options}')
+        with pytest.raises(StudyError, match=match):
+            load_study(_write(tmp_path, text))
+    with pytest.raises(StudyError, match=r"robot\.options for direct_drive: physical parameters must be .* >= 0"):
+        load_study(_write(tmp_path, MINIMAL.replace('model = "direct_drive"',
+                                                    'model = "direct_drive"\noptions = { m1 = -1.0 }')))
+
+
+def test_estimator_options_are_checked_when_read(tmp_path):
+    """Ranges the estimators would refuse only when run are refused when the study is read."""
+    for option, match in [("forgetting = 1.5", r"forgetting: must be <= 1.0"), ("P0 = 0", r"P0: must be > 0.0"),
+                          ('P0 = "big"', r"P0: must be a number")]:
+        text = MINIMAL + f'[[estimators]]\nmethod = "rls"\nregressions = ["inverse_dynamic"]\n{option}\n'
+        with pytest.raises(StudyError, match=r"estimators\[1\]\." + match):
+            load_study(_write(tmp_path, text))
+    text = MINIMAL.replace('method = "wls"', 'method = "wls"\nlevel = 1.0')
+    with pytest.raises(StudyError, match=r"level: must be < 1.0"):
+        load_study(_write(tmp_path, text))
+
+
+def test_seed_must_be_a_non_negative_integer(tmp_path):
+    cfg = load_study(_write(tmp_path, MINIMAL))
+    assert cfg.with_seed(np.int64(5)).seed == 5
+    for bad in (-1, 1.5, True):
+        with pytest.raises(InputError, match="seed must be an integer >= 0"):
+            cfg.with_seed(bad)
+
+
+@pytest.mark.parametrize("h, decimation, cutoff", [(0.0025, 10, None), (0.0025, 1, 10.0), (0.0025, 1, None),
+                                                     (0.001, 10, 20.0), (0.0025, 1, 150.0)])
+def test_minimum_duration_matches_the_regression_builders(h, decimation, cutoff):
+    """Reference: the row counts of the builders themselves on a recording of that length. Just
+    above the minimum every model has >= p rows; two (decimated) samples below it the inverse
+    dynamic model has fewer than p."""
+    from boundid.models import DirectDriveArm
+    from boundid.studies.config import PreprocessingConfig
+    from boundid.studies.runner import build_regressions
+    from boundid.studies.sizing import minimum_duration
+
+    model, pp = DirectDriveArm(), PreprocessingConfig(lowpass_cutoff_hz=cutoff, decimation=decimation)
+    need = minimum_duration(h, 2, model.p, REGRESSIONS, cutoff, decimation)
+
+    def rows(duration, name):
+        t = np.arange(int(np.floor(duration / h + 1e-9)) + 1) * h
+        q = np.column_stack([np.sin(3 * t), np.cos(2 * t)])
+        return build_regressions(model, Recording(t, q, q.copy()), pp, (name,))[name].n_rows
+
+    for name, d in need.items():
+        assert rows(d + h * decimation, name) >= model.p, name
+    assert rows(need["inverse_dynamic"] - 2 * h * decimation, "inverse_dynamic") < model.p
+
+
+def test_experiment_too_short_or_cutoff_too_high_is_refused_when_read(tmp_path):
+    """0.01 s (the padlen case of issue 13) and a low-pass cut-off above the decimated Nyquist
+    frequency are refused when the study is read, with the minimum or the limit."""
+    with pytest.raises(StudyError, match=r"duration_s is 0\.01 s: too short for the inverse_dynamic model, which "
+                                         r"needs more than 0\.05 s"):
+        load_study(_write(tmp_path, MINIMAL.replace('source = "simulate"', 'source = "simulate"\nduration_s = 0.01')))
+    text = MINIMAL + "[preprocessing]\ndecimation = 4\nlowpass_cutoff_hz = 60.0\n"
+    with pytest.raises(StudyError, match=r"preprocessing\.lowpass_cutoff_hz: 60 Hz must be below 50 Hz"):
+        load_study(_write(tmp_path, text))
+
+
+def test_recording_cells_are_named_by_column_and_row(tmp_path):
+    t = np.arange(10) * 0.01
+    path = write_recording(Recording(t, t[:, None], t[:, None]), tmp_path / "r.csv")
+    lines = path.read_text().splitlines()
+    lines[3] = lines[3].split(",")[0] + ",,0.02"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError, match=r"1 empty or infinite value\(s\), the first in column 'q1' at data row 3"):
+        read_recording(path, "t", ["q1"], ["tau1"])
+    lines[3] = lines[3].split(",")[0] + ",1.0e,0.02"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError, match=r"column 'q1', data row 3: '1.0e' is not a number"):
+        read_recording(path, "t", ["q1"], ["tau1"])

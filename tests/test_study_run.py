@@ -10,18 +10,22 @@ from __future__ import annotations
 import base64
 import io
 import json
+from dataclasses import replace
 from html.parser import HTMLParser
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from PIL import Image
 
 from boundid.cli import main
+from boundid.estimators import Estimate
 from boundid.experiments.recording import Recording, write_recording
 from boundid.report.study_page import write_study_report
+from boundid.sets import Ellipsoid
 from boundid.studies.config import load_study
-from boundid.studies.runner import run_study
+from boundid.studies.runner import run_study, tidy_table
 
 SHORT = """
 regressions = ["filtered_dynamic", "supplied_energy", "filtered_power", "inverse_dynamic"]
@@ -97,6 +101,37 @@ def test_runner_tidy_table_and_guarantee(short_study):
     lp = r.table[r.table.estimator == "LP exact"]
     assert np.all(lp.lo.to_numpy() <= r.model.theta_true + 1e-9)
     assert np.all(lp.hi.to_numpy() >= r.model.theta_true - 1e-9)
+
+
+def test_tidy_table_tells_truth_in_set_from_truth_in_intervals(short_study):
+    """Constructed case, checked by hand: the unit ball about theta_true - 0.7 (1, ..., 1) holds
+    every coordinate of theta_true in its interval [c_j - 1, c_j + 1] (0.7 < 1) but not theta_true
+    itself (squared distance 9 x 0.49 = 4.41 > 1): truth_in_all_intervals True, truth_in_set False.
+    The ball about the truth has both; the ball 1.5 away along th1 neither; a point estimate has
+    no set (NA). Measured data have no known truth: NA throughout. The exact polytope of the run,
+    whose data respect the bound, holds the truth in both senses."""
+    cfg, r = short_study
+    th = r.model.theta_true
+
+    def ball(center):
+        E = Ellipsoid.ball(center, 1.0)
+        return Estimate("ball", np.asarray(center, float), E, E.intervals(), "guaranteed")
+
+    estimates = {("corner", "reg"): ball(th - 0.7), ("centred", "reg"): ball(th),
+                 ("far", "reg"): ball(th - 1.5 * np.eye(r.model.p)[0]),
+                 ("point", "reg"): Estimate("LS", th + 5.0, None, (th + 4.0, th + 6.0), "point")}
+    assert float((0.7 * np.ones(r.model.p)) @ (0.7 * np.ones(r.model.p))) > 1.0
+    t = tidy_table(cfg, r.model, estimates, None).groupby("estimator", sort=False)[
+        ["truth_in_set", "truth_in_all_intervals"]].first()
+    assert t.loc["corner"].tolist() == [False, True]
+    assert t.loc["centred"].tolist() == [True, True]
+    assert t.loc["far"].tolist() == [False, False]
+    assert t.loc["point", "truth_in_set"] is pd.NA and not t.loc["point", "truth_in_all_intervals"]
+    measured = replace(cfg, experiment=replace(cfg.experiment, source="measured"))
+    assert tidy_table(measured, r.model, estimates, None)[["truth_in_set", "truth_in_all_intervals"]].isna().all().all()
+    lp = r.table[r.table.estimator == "LP exact"]
+    assert lp["truth_in_set"].all() and lp["truth_in_all_intervals"].all()
+    assert r.table["truth_in_set"].dtype == "boolean"
 
 
 class _PageReader(HTMLParser):

@@ -9,9 +9,45 @@ import sys
 from pathlib import Path
 
 from boundid.errors import BoundidError
+from boundid.studies import sizing
 
 DEFAULT_STUDIES = Path("studies")
 DEFAULT_REPORTS = Path("reports")
+
+
+BUDGET_HELP = (f"Resource guard: a study whose experiment exceeds {sizing.ENV_MAX_SAMPLES} samples x joints "
+               f"(default {sizing.DEFAULT_MAX_SAMPLES:g}) or {sizing.ENV_MAX_MEMORY_GB} of estimated memory "
+               f"(default {sizing.DEFAULT_MAX_MEMORY_GB:g}) is refused before it runs; set these environment "
+               "variables to raise the budget.")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors (exit 2), like every other boundid error."""
+
+    def error(self, message: str):
+        self.exit(2, f"boundid: error: {message} (see {self.prog} --help)\n")
+
+
+def _integer(lo: int, what: str):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an integer {what}, got {text!r}") from None
+        if value < lo:
+            raise argparse.ArgumentTypeError(f"must be an integer {what}, got {value}")
+        return value
+    return parse
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (value > 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return value
 
 
 def _progress(quiet: bool):
@@ -20,41 +56,58 @@ def _progress(quiet: bool):
     return Progress(enabled=not quiet)
 
 
-def cmd_run(args) -> int:
-    from boundid.report.study_page import write_study_report
+def _load_studies(paths, seed: int | None = None) -> list:
+    """Parse every study file before anything runs; refuse two studies of one name (they would
+    write the same report folder)."""
+    from boundid.errors import StudyError
     from boundid.studies.config import load_study
+
+    configs, seen = [], {}
+    for path in paths:
+        cfg = load_study(path)
+        if seed is not None:
+            cfg = cfg.with_seed(seed)
+        key = cfg.name.casefold()
+        if key in seen:
+            raise StudyError(f"{seen[key].file} and {cfg.file} both name their study {cfg.name!r} (names differing "
+                             "only in case count as one); each study writes <out>/<name>/, so give one of them "
+                             "another [study] name.")
+        seen[key] = cfg
+        configs.append(cfg)
+    return configs
+
+
+def _run_studies(configs, out: Path, quiet: bool) -> list[tuple[str, str, Path]]:
+    """Run each study and write its page to out/<name>/; (name, title, page) of each."""
+    from boundid.report.output import check_out_dir
+    from boundid.report.study_page import write_study_report
     from boundid.studies.runner import run_study
 
-    cfg = load_study(args.study)
-    if args.seed is not None:
-        cfg = cfg.with_seed(args.seed)
-    out = Path(args.out) / cfg.name
-    with _progress(args.quiet) as progress:
-        result = run_study(cfg, progress=progress)
-        page = write_study_report(result, out)
-    if not args.quiet:
-        print(f"{cfg.name}: {page}")
+    check_out_dir(out, tuple(cfg.name for cfg in configs))
+    written = []
+    with _progress(quiet) as progress:
+        for cfg in configs:
+            result = run_study(cfg, progress=progress)
+            written.append((cfg.name, cfg.title, write_study_report(result, out / cfg.name)))
+    return written
+
+
+def cmd_run(args) -> int:
+    for name, _, page in _run_studies(_load_studies(args.study, args.seed), Path(args.out), args.quiet):
+        if not args.quiet:
+            print(f"{name}: {page}")
     return 0
 
 
 def cmd_report(args) -> int:
     from boundid.report.html import write_index
-    from boundid.report.study_page import write_study_report
-    from boundid.studies.config import load_study
-    from boundid.studies.runner import run_study
 
     studies = sorted(Path(args.studies).glob("*.toml"))
     if not studies:
         raise BoundidError(f"no study files in {args.studies}/; add a *.toml study there.")
     out = Path(args.out)
-    entries = []
-    with _progress(args.quiet) as progress:
-        for path in studies:
-            cfg = load_study(path)
-            result = run_study(cfg, progress=progress)
-            page = write_study_report(result, out / cfg.name)
-            entries.append((cfg.name, cfg.title, page.relative_to(out)))
-    index = write_index(out, entries)
+    written = _run_studies(_load_studies(studies), out, args.quiet)
+    index = write_index(out, [(name, title, page.relative_to(out)) for name, title, page in written])
     if not args.quiet:
         print(f"index: {index}")
     return 0
@@ -62,20 +115,23 @@ def cmd_report(args) -> int:
 
 def cmd_campaign(args) -> int:
     from boundid.report.campaign_page import write_campaign_page
-    from boundid.studies.campaign import run_campaign
-    from boundid.studies.config import load_study
+    from boundid.report.output import check_out_dir, recover_folder
+    from boundid.studies.campaign import DATA_DIR, run_campaign
     from boundid.studies.scenarios import load_campaign
 
-    cfg = load_study(args.study)
-    if args.seed is not None:
-        cfg = cfg.with_seed(args.seed)
+    (cfg,) = _load_studies([args.study], args.seed)
     spec = load_campaign(cfg)
+    scenarios = spec.select(args.scenarios)
     replicates = args.replicates if args.replicates is not None else spec.replicates
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
-    out = Path(args.out) / cfg.name / "campaign"
+    check_out_dir(Path(args.out), (cfg.name,))
+    out = check_out_dir(Path(args.out) / cfg.name, ("campaign",)) / "campaign"
+    recover_folder(out, keep=(DATA_DIR,))  # a page write killed mid-swap may have left data/ beside it
     with _progress(args.quiet) as progress:
-        result = run_campaign(cfg, replicates, spec.select(args.scenarios), out, workers=workers,
+        result = run_campaign(cfg, replicates, scenarios, out, workers=workers,
                               scheduler=args.scheduler, progress=progress)
+    for path, reason in result.set_aside:
+        print(f"boundid: warning: {reason}; moved to {path} and computed again.", file=sys.stderr)
     page = write_campaign_page(result)
     if not args.quiet:
         print(f"{cfg.name}: {len(result.computed)} replicates computed, {len(result.skipped)} already done "
@@ -127,17 +183,21 @@ def cmd_certify(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="boundid", description=__doc__)
+    ap = _Parser(prog="boundid", description=__doc__)
     sub = ap.add_subparsers(dest="command", required=True)
 
-    p = sub.add_parser("run", help="run one study and write its report")
-    p.add_argument("study", help="study file, e.g. studies/h4_obe.toml")
+    seed = _integer(0, ">= 0")
+    p = sub.add_parser("run", help="run studies and write their reports", epilog=BUDGET_HELP,
+                       description="Runs each study and writes <out>/<study name>/index.html (replaced as a whole "
+                                   "only once complete).")
+    p.add_argument("study", nargs="+", help="study file(s), e.g. studies/h4_obe.toml")
     p.add_argument("--out", default=str(DEFAULT_REPORTS), help="reports folder (default: reports)")
-    p.add_argument("--seed", type=int, help="override the study's seed")
+    p.add_argument("--seed", type=seed, help="override the studies' seed (an integer >= 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_run)
 
-    p = sub.add_parser("report", help="run every study in studies/ and write reports/ with its index")
+    p = sub.add_parser("report", help="run every study in studies/ and write reports/ with its index",
+                       epilog=BUDGET_HELP)
     p.add_argument("--studies", default=str(DEFAULT_STUDIES))
     p.add_argument("--out", default=str(DEFAULT_REPORTS))
     p.add_argument("--quiet", action="store_true")
@@ -145,19 +205,22 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "campaign", help="Monte Carlo campaign: every estimator on fresh noise, per scenario (resumable)",
+        epilog=BUDGET_HELP,
         description="Runs replicates 0..N-1 of each scenario of the study's [campaign] table with Dask and writes "
                     "one Parquet file per (scenario, replicate) to <out>/<study>/campaign/data/ (a re-run skips "
                     "those already there), then the summary page <out>/<study>/campaign/index.html. Campaign mode: "
-                    "no SDP ellipsoids and no validation experiment.")
+                    "no SDP ellipsoids and no validation experiment. A replicate file that cannot be read back "
+                    "(e.g. truncated) is moved aside to <name>.corrupt and computed again.")
     p.add_argument("study", help="study file, e.g. studies/direct_drive_rls.toml")
-    p.add_argument("--replicates", type=int, help="replicates per scenario (default: campaign.replicates)")
+    p.add_argument("--replicates", type=_integer(1, ">= 1"),
+                   help="replicates per scenario (default: campaign.replicates)")
     p.add_argument("--scenarios", nargs="+", metavar="NAME", help="scenarios to run (default: all of the study's)")
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, metavar="K",
+    where.add_argument("--workers", type=_integer(0, ">= 0"), metavar="K",
                        help="local Dask cluster of K single-thread worker processes (default: one per CPU; "
                             "0: in this process, no cluster)")
     where.add_argument("--scheduler", metavar="ADDRESS", help="existing Dask scheduler, e.g. tcp://host:8786")
-    p.add_argument("--seed", type=int, help="override the study's seed (the root of every replicate's seed)")
+    p.add_argument("--seed", type=seed, help="override the study's seed (the root of every replicate's seed)")
     p.add_argument("--out", default=str(DEFAULT_REPORTS), help="reports folder (default: reports)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_campaign)
@@ -187,7 +250,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ellipsoid", required=True,
                    help='JSON {"center": [...], "shape": [[...]]} (or "information" and "sigma"), or CSV '
                         "whose first row is the centre and the next p rows the shape matrix")
-    p.add_argument("--e-max", type=float, help="one error bound for every row (instead of an e_max column)")
+    p.add_argument("--e-max", type=_positive_float,
+                   help="one error bound for every row (instead of an e_max column)")
     p.add_argument("--no-sdp", action="store_true", help="skip the SDP volume comparison (LP bounds only)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=cmd_certify)
@@ -198,8 +262,8 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except BoundidError as exc:
-        print(f"boundid: error: {exc}", file=sys.stderr)
+    except BoundidError as exc:  # one line: the message names the problem and the fix
+        print(f"boundid: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("boundid: interrupted", file=sys.stderr)

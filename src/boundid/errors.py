@@ -3,6 +3,8 @@
 Every message says what was wrong and what to do about it.
 """
 
+import numpy as np
+
 
 class BoundidError(Exception):
     """Base class of every boundid error."""
@@ -26,3 +28,18 @@ class UnreachablePoseError(BoundidError, ValueError):
 
 class StudyError(BoundidError, ValueError):
     """A study file that cannot be run: missing key, wrong type, unknown value."""
+
+
+class ResourceError(StudyError):
+    """A study whose experiment would exceed the resource budget (samples x joints, memory)."""
+
+
+class OutputError(BoundidError):
+    """A report folder that cannot be written: ``--out`` is a file, not writable, or a name escapes it."""
+
+
+# What one stage of a run (an estimator, a re-simulation, an exact optimum, a figure) may raise on
+# input that is valid but numerically hard: boundid's own errors, and numpy/scipy/math failures
+# (LinAlgError, FloatingPointError, ZeroDivisionError, OverflowError, ValueError such as
+# "math domain error"). A study run records these as failures of that stage and goes on.
+RUN_FAILURES = (BoundidError, np.linalg.LinAlgError, ArithmeticError, ValueError)

@@ -52,37 +52,78 @@ def write_recording(rec: Recording, path: str | Path) -> Path:
     return path
 
 
+def read_table(path: str | Path, what: str = "recording") -> pd.DataFrame:
+    """A CSV (.csv, .txt) or Parquet (.parquet) file as a DataFrame with at least one data row.
+
+    InputError naming the file (``what`` says what it holds) when it is missing, empty, not a
+    well-formed CSV, not UTF-8 text, or not a readable Parquet file (e.g. truncated).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{what} {path} not found.")
+    if path.suffix not in (".parquet", ".csv", ".txt"):
+        raise InputError(f"{what} {path}: unknown format {path.suffix!r}; use .csv or .parquet.")
+    try:
+        df = pd.read_parquet(path) if path.suffix == ".parquet" else pd.read_csv(path)
+    except pd.errors.EmptyDataError:
+        raise InputError(f"{what} {path} is empty: it needs a header row and data rows.") from None
+    except pd.errors.ParserError as exc:
+        raise InputError(f"{what} {path} is not a well-formed CSV file: {' '.join(str(exc).split())}") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{what} {path} is not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset "
+                         f"{exc.start}); save it as UTF-8 CSV.") from None
+    except (OSError, ValueError) as exc:  # pyarrow: ArrowInvalid (a ValueError), ArrowIOError (an OSError)
+        raise InputError(f"{what} {path} cannot be read as Parquet ({type(exc).__name__}: {exc}); "
+                         "is it complete? Write it again.") from None
+    if len(df) == 0:
+        raise InputError(f"{what} {path} has a header but no data rows.")
+    return df
+
+
+def numeric_columns(df: pd.DataFrame, columns, path: str | Path, what: str = "recording") -> np.ndarray:
+    """The named columns as a finite float array (N, k); InputError naming the file, the column and
+    the data row (1 = the first row after the header) of the first cell that is not a finite number."""
+    columns = list(columns)
+    missing = [c for c in columns if c not in df.columns]
+    if missing:
+        raise InputError(f"{what} {path} has no column(s) {missing}; its columns are {list(df.columns)}.")
+    data = np.empty((len(df), len(columns)))
+    for k, col in enumerate(columns):
+        cells = df[col]
+        values = pd.to_numeric(cells, errors="coerce")
+        text = values.isna() & cells.notna()
+        if text.any():
+            r = int(np.argmax(text.to_numpy()))
+            raise InputError(f"{what} {path}: column {col!r}, data row {r + 1}: {cells.iloc[r]!r} is not a number; "
+                             "fix or drop that row.")
+        data[:, k] = values.to_numpy(dtype=float)
+    bad = ~np.isfinite(data)
+    if bad.any():
+        r, c = np.argwhere(bad)[0]
+        raise InputError(f"{what} {path}: {int(bad.sum())} empty or infinite value(s), the first in column "
+                         f"{columns[c]!r} at data row {r + 1}; fill or drop those samples first.")
+    return data
+
+
 def read_recording(path: str | Path, time: str, q: list[str] | tuple[str, ...], tau: list[str] | tuple[str, ...],
                    rtol_sampling: float = 1e-3) -> Recording:
     """Read a CSV or Parquet recording, mapping the named columns to t, q and tau.
 
     The samples must be uniformly spaced (relative jitter below ``rtol_sampling``): the
-    regression models filter and differentiate with a fixed sample period.
+    regression models filter and differentiate with a fixed sample period. Unreadable files and
+    cells that are not numbers raise InputError naming the file, column and row.
     """
     path = Path(path)
     if not path.is_file():
         raise InputError(f"recording {path} not found; give its path relative to the study file.")
-    if path.suffix == ".parquet":
-        df = pd.read_parquet(path)
-    elif path.suffix in (".csv", ".txt"):
-        df = pd.read_csv(path)
-    else:
-        raise InputError(f"recording {path}: unknown format {path.suffix!r}; use .csv or .parquet.")
+    df = read_table(path, "recording")
     wanted = [time, *q, *tau]
-    missing = [c for c in wanted if c not in df.columns]
-    if missing:
+    if missing := [c for c in wanted if c not in df.columns]:
         raise InputError(
             f"recording {path} has no column(s) {missing}; its columns are {list(df.columns)}. "
             "Map them in the study file's [experiment.measured.columns]."
         )
-    data = df[wanted].to_numpy(dtype=float)
-    bad = ~np.isfinite(data)
-    if bad.any():
-        r, c = np.argwhere(bad)[0]
-        raise InputError(
-            f"recording {path}: {int(bad.sum())} empty or non-numeric value(s), the first in column "
-            f"{wanted[c]!r} at row {r}; fill or drop those samples first."
-        )
+    data = numeric_columns(df, wanted, path, "recording")
     t = data[:, 0]
     dt = np.diff(t)
     if len(t) < 3 or np.any(dt <= 0):

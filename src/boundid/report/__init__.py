@@ -12,6 +12,7 @@ from boundid.report.figures import (
     width_ratios,
 )
 from boundid.report.html import Page, write_index
+from boundid.report.output import check_out_dir, recover_folder, replace_folder, write_file_atomically
 from boundid.report.tables import (
     deviation_percent,
     estimate_summary,
@@ -25,6 +26,7 @@ from boundid.report.tables import (
 __all__ = [
     "PALETTE",
     "Page",
+    "check_out_dir",
     "color_for",
     "deviation_percent",
     "estimate_summary",
@@ -35,10 +37,13 @@ __all__ = [
     "parameter_convergence",
     "parameter_table",
     "projection_2d",
+    "recover_folder",
+    "replace_folder",
     "torque_bounds",
     "trajectory_comparison",
     "volume_history",
     "width_ratios",
     "widths",
+    "write_file_atomically",
     "write_index",
 ]

@@ -16,7 +16,8 @@ from matplotlib.figure import Figure
 from boundid.errors import InputError
 from boundid.report.figures import DPI, color_for
 from boundid.report.html import Page
-from boundid.studies.campaign import CampaignResult, parameter_errors, summarize
+from boundid.report.output import replace_folder
+from boundid.studies.campaign import DATA_DIR, CampaignResult, parameter_errors, summarize
 
 KEYS = ["scenario", "estimator", "regression"]
 _HATCHES = (None, "//", "..", "xx")  # one per regression model; the colour is the estimator's
@@ -117,5 +118,12 @@ def campaign_page(result: CampaignResult) -> Page:
 
 
 def write_campaign_page(result: CampaignResult) -> Path:
-    """Write ``<out>/index.html`` (with tables/, figures/, summary.md); returns the page path."""
-    return campaign_page(result).write(result.out / "index.html")
+    """Write ``<out>/index.html`` (with tables/, figures/, summary.md); returns the page path.
+
+    The folder is replaced as a whole (:func:`boundid.report.output.replace_folder`), its ``data/``
+    (the replicate files) carried over: a kill while writing leaves the previous page as it was.
+    """
+    page = campaign_page(result)
+    with replace_folder(result.out, keep=(DATA_DIR,)) as tmp:
+        page.write(tmp / "index.html")
+    return Path(result.out) / "index.html"

@@ -30,6 +30,7 @@ from matplotlib.figure import Figure
 from boundid import __version__
 from boundid.errors import InputError
 from boundid.report.figures import DPI
+from boundid.report.output import write_file_atomically
 from boundid.report.tables import FloatFormat, format_frame, latex_table, markdown_table, shows_index
 
 MAX_PAGE_BYTES = 3_000_000  # issue 7: a study page stays under 3 MB
@@ -355,7 +356,6 @@ def write_index(reports_dir: str | Path, studies=None, title: str = "boundid rep
     body = (_paragraphs(description) if description else "") + '<ul class="studies">' + "".join(items) + "</ul>"
     out = root / "index.html"
     root.mkdir(parents=True, exist_ok=True)
-    out.write_text(_PAGE.substitute(csp=_CSP, meta_description=html.escape(" ".join(description.split())),
-                                    version=__version__, title=html.escape(title), css=_CSS, body=body),
-                   encoding="utf-8")
+    write_file_atomically(out, _PAGE.substitute(csp=_CSP, meta_description=html.escape(" ".join(description.split())),
+                                                version=__version__, title=html.escape(title), css=_CSS, body=body))
     return out

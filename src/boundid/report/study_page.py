@@ -7,18 +7,37 @@ figures appear only in columns and captions labelled "paper".
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from boundid.errors import RUN_FAILURES
 from boundid.report import figures as F
 from boundid.report.html import Page
+from boundid.report.output import replace_folder
 from boundid.report.tables import deviation_percent, estimate_summary, parameter_table, widths
 from boundid.sets import log_unit_ball_volume
 from boundid.studies.certify_files import certificate_row
 from boundid.studies.projection import shadow_points
-from boundid.studies.runner import StudyResult
+from boundid.studies.runner import Failure, StudyResult
+
+
+class _Guard:
+    """``with guard("figure", name): ...``: a part of the page that fails is recorded as a Failure
+    (stage, subject, reason) and the page goes on without it."""
+
+    def __init__(self, failures: list[Failure]):
+        self.failures = failures
+
+    @contextmanager
+    def __call__(self, stage: str, subject: str) -> Iterator[None]:
+        try:
+            yield
+        except RUN_FAILURES as exc:
+            self.failures.append(Failure(stage, subject, f"{type(exc).__name__}: {exc}"))
 
 
 def _setup(r: StudyResult) -> dict:
@@ -141,7 +160,7 @@ def _validation_section(page: Page, r: StudyResult) -> None:
                     name="torque_bounds")
 
 
-def _exact_section(page: Page, r: StudyResult) -> None:
+def _exact_section(page: Page, r: StudyResult, guard: _Guard) -> None:
     ex = r.exact
     if ex is None:
         return
@@ -158,17 +177,19 @@ def _exact_section(page: Page, r: StudyResult) -> None:
     for what, msg in ex.errors.items():
         page.text(f"{what}: {msg}.")
     sets = {lab: e for (lab, rn), e in r.estimates.items() if rn == ex.regression and e.ellipsoid is not None}
-    if ex.bounds is not None:
-        w = widths(names, {"LP exact": (ex.bounds.lo, ex.bounds.hi),
-                           **{lab: e.intervals for lab, e in sets.items() if e.guaranteed},
-                           **{f"SDP {k}": v.ellipsoid.intervals() for k, v in ex.sdp.items()}})
-        page.figure(F.width_ratios(w), "Per-parameter interval width over the exact LP width (1 = exact).",
-                    name="width_ratios")
+    compared = {**{lab: e.intervals for lab, e in sets.items() if e.guaranteed},
+                **{f"SDP {k}": v.ellipsoid.intervals() for k, v in ex.sdp.items()}}
+    if ex.bounds is not None and compared:
+        with guard("figure", "width ratios"):
+            w = widths(names, {"LP exact": (ex.bounds.lo, ex.bounds.hi), **compared})
+            page.figure(F.width_ratios(w), "Per-parameter interval width over the exact LP width (1 = exact).",
+                        name="width_ratios")
     logv = {lab: e.ellipsoid.log_volume() / m.p for lab, e in sets.items() if e.guaranteed}
     logv.update({f"SDP {k}": v.ellipsoid.log_volume() / m.p for k, v in ex.sdp.items()})
     if logv:
-        page.figure(F.log_volume_bars(logv), "ln volume per dimension of the guaranteed and SDP ellipsoids "
-                    "(the inner ellipsoid is a lower bound on any outer one).", name="log_volumes")
+        with guard("figure", "log volumes"):
+            page.figure(F.log_volume_bars(logv), "ln volume per dimension of the guaranteed and SDP ellipsoids "
+                        "(the inner ellipsoid is a lower bound on any outer one).", name="log_volumes")
     rows = {lab: certificate_row(cert) for lab, cert in ex.certificates.items()}
     if rows:
         page.table(pd.DataFrame.from_dict(rows, orient="index").rename_axis("estimate"),
@@ -183,16 +204,17 @@ def _exact_section(page: Page, r: StudyResult) -> None:
                "confidence sets may miss the truth; guaranteed sets may not, wherever the bound holds.",
                float_format="{:.4g}", name="estimates")
     for a, b in r.config.exact.projections:
-        idx = [names.index(a), names.index(b)]
-        pts = shadow_points(ex.polytope, idx) if ex.bounds is not None else None
-        ells = {lab: e.ellipsoid.project(idx) for lab, e in sets.items()}
-        ells.update({f"SDP {k}": v.ellipsoid.project(idx) for k, v in ex.sdp.items()})
-        box = ((ex.bounds.lo[idx], ex.bounds.hi[idx]) if ex.bounds is not None else None)
-        page.figure(F.projection_2d(pts, ells, m.theta_true[idx], box, (a, b),
-                                    units=[m.param_units[i] for i in idx]),
-                    f"Projection on ({a}, {b}): exact polytope shadow (grey), LP box (dashed), ellipsoids, "
-                    "truth (star).",
-                    name=f"projection_{a}_{b}")
+        with guard("projection", f"({a}, {b})"):
+            idx = [names.index(a), names.index(b)]
+            pts = shadow_points(ex.polytope, idx) if ex.bounds is not None else None
+            ells = {lab: e.ellipsoid.project(idx) for lab, e in sets.items()}
+            ells.update({f"SDP {k}": v.ellipsoid.project(idx) for k, v in ex.sdp.items()})
+            box = ((ex.bounds.lo[idx], ex.bounds.hi[idx]) if ex.bounds is not None else None)
+            page.figure(F.projection_2d(pts, ells, m.theta_true[idx], box, (a, b),
+                                        units=[m.param_units[i] for i in idx]),
+                        f"Projection on ({a}, {b}): exact polytope shadow (grey), LP box (dashed), ellipsoids, "
+                        "truth (star).",
+                        name=f"projection_{a}_{b}")
 
 
 def _convergence_sets(page: Page, r: StudyResult) -> None:
@@ -209,26 +231,45 @@ def _convergence_sets(page: Page, r: StudyResult) -> None:
                         "paper's estimator.", name="obe_convergence")
 
 
-def write_study_report(r: StudyResult, out_dir: str | Path) -> Path:
-    """Write ``out_dir/index.html`` (self-contained) with figures/, tables/, summary.md and results.csv."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+def study_page(r: StudyResult) -> Page:
+    """Build the page of ``r`` (nothing written). A section, figure or projection that fails is left
+    out and listed, with the run's own failures, in the table of the last section, "What failed"."""
     cfg = r.config
     page = Page(cfg.title, cfg.description.strip(), setup=_setup(r))
-    if cfg.robot == "h4":
-        _paper_section_h4(page, r)
-    elif cfg.robot == "direct_drive":
-        _paper_section_direct_drive(page, r)
-    if r.failures:
-        page.section("Estimators that failed",
-                     "Reported as they failed; no other answer is substituted. The standard-form OBE keeps "
-                     "M^-1 by rank-one downdates, which lose positive definiteness to rounding when a wide prior "
-                     "meets very informative rows: the reason seed 000 uses the factorized (square-root) form.")
-        page.table(pd.DataFrame([{"estimator": lab, "regression": rn, "failure": msg}
-                                 for (lab, rn), msg in r.failures.items()]).set_index("estimator"),
-                   "Failures.", name="failures")
-    _convergence_sets(page, r)
-    _validation_section(page, r)
-    _exact_section(page, r)
-    r.table.to_csv(out_dir / "results.csv", index=False)
-    return page.write(out_dir / "index.html")
+    failures = list(r.failures)
+    guard = _Guard(failures)
+    paper = {"h4": _paper_section_h4, "direct_drive": _paper_section_direct_drive}.get(cfg.robot)
+    if paper is not None:
+        with guard("section", "paper's table"):
+            paper(page, r)
+    with guard("section", "recursive set estimates"):
+        _convergence_sets(page, r)
+    with guard("section", "validation"):
+        _validation_section(page, r)
+    with guard("section", "distance to the exact optimum"):
+        _exact_section(page, r, guard)
+    if failures:
+        page.setup["failures"] = f"{len(failures)}, listed in the last section"
+        page.section("What failed",
+                     "Reported as it failed; no other answer is substituted, and the rest of the page stands. "
+                     "The standard-form OBE keeps M^-1 by rank-one downdates, which lose positive definiteness "
+                     "to rounding when a wide prior meets very informative rows: the reason seed 000 uses the "
+                     "factorized (square-root) form.")
+        page.table(pd.DataFrame(failures, columns=["stage", "subject", "failure"]).set_index("stage"),
+                   "Failures of the run and of the page.", name="failures")
+    return page
+
+
+def write_study_report(r: StudyResult, out_dir: str | Path) -> Path:
+    """Write ``out_dir/index.html`` (self-contained) with figures/, tables/, summary.md and results.csv.
+
+    The folder is written as a whole into a hidden sibling and swapped into place (see
+    :func:`boundid.report.output.replace_folder`): a run killed while writing leaves the previous
+    page as it was. A ``campaign/`` sub-folder (``boundid campaign``) is carried over.
+    """
+    out_dir = Path(out_dir)
+    page = study_page(r)
+    with replace_folder(out_dir, keep=("campaign",)) as tmp:
+        r.table.to_csv(tmp / "results.csv", index=False)
+        page.write(tmp / "index.html")
+    return out_dir / "index.html"

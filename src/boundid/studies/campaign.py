@@ -14,7 +14,9 @@ failure``) to one Parquet file::
 The file is written under a temporary name and moved into place with ``os.replace`` (atomic), so
 a replicate is either complete or absent. A campaign restarted after any interruption (Ctrl-C, a
 killed worker or process, a crash) skips the files already there: nothing is recomputed or
-duplicated. The config hash covers the scenario's whole configuration (seed included), so editing
+duplicated. A file there that cannot be read back (truncated or damaged by other means) is moved
+aside to ``<name>.corrupt`` and its replicate computed again; the result lists it.
+The config hash covers the scenario's whole configuration (seed included), so editing
 the study or a scenario starts fresh files instead of mixing old and new results; it does not cover
 the code: after changing an estimator, run into a new folder.
 
@@ -37,7 +39,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from boundid.errors import InfeasibleDataError, InputError, SolverError, StudyError
+from boundid.errors import RUN_FAILURES, InputError, StudyError
 from boundid.studies.config import StudyConfig
 from boundid.studies.data import acquire
 from boundid.studies.progress import QUIET, Progress
@@ -78,7 +80,8 @@ def replicate_rows(cfg: StudyConfig, scenario: Scenario, replicate: int) -> pd.D
     bound_ratio (guaranteed estimators): max_k |y_k - w_k^T theta_true| / e_max on the estimator's
     own regression -- <= 1 means the errors respect the bound, so the set must contain the truth.
     truth_error_ratio: the same on the exact optima's regression with its e_max.
-    Failed estimators (SolverError, InfeasibleDataError) get rows with NaN values and the reason.
+    Failed estimators (any of :data:`boundid.errors.RUN_FAILURES`) get rows with NaN values, kind
+    "failed" and the reason; so do the exact LP bounds ("LP exact") when their computation fails.
     """
     t_start = time.perf_counter()
     ccfg = campaign_config(cfg, scenario)
@@ -92,8 +95,8 @@ def replicate_rows(cfg: StudyConfig, scenario: Scenario, replicate: int) -> pd.D
             reg = regressions[regname]
             try:
                 est = run_estimator(ec, reg, model, ccfg.prior)
-            except (SolverError, InfeasibleDataError) as exc:
-                failures.append((ec, regname, f"{type(exc).__name__}: {exc}"))
+            except RUN_FAILURES as exc:
+                failures.append((ec.label, ec.method, regname, f"{type(exc).__name__}: {exc}"))
                 continue
             estimates[(ec.label, regname)] = est
             ratio = np.nan
@@ -103,15 +106,24 @@ def replicate_rows(cfg: StudyConfig, scenario: Scenario, replicate: int) -> pd.D
     exact = None
     if ccfg.exact.regression is not None:
         t0 = time.perf_counter()
-        exact = exact_optima(ccfg, regressions[ccfg.exact.regression], model, {}, QUIET)
-        extra[("LP exact", ccfg.exact.regression)] = (time.perf_counter() - t0, np.nan, None)
+        try:
+            exact = exact_optima(ccfg, regressions[ccfg.exact.regression], model, {}, QUIET)
+        except RUN_FAILURES as exc:
+            failures.append(("LP exact", "LP", ccfg.exact.regression, f"{type(exc).__name__}: {exc}"))
+        else:  # data that contradict the bound are a finding (no LP rows), a failed LP is a failure
+            lp_failure = exact.errors.get("consistency") or (exact.errors.get("bounds") if exact.consistent else None)
+            if lp_failure:
+                failures.append(("LP exact", "LP", ccfg.exact.regression, lp_failure))
+            extra[("LP exact", ccfg.exact.regression)] = (time.perf_counter() - t0, np.nan, None)
     table = tidy_table(ccfg, model, estimates, exact)
-    for ec, regname, reason in failures:
-        extra[(ec.label, regname)] = (np.nan, np.nan, reason)
+    for label, method, regname, reason in failures:
+        extra[(label, regname)] = (np.nan, np.nan, reason)
         table = pd.concat([table, pd.DataFrame({
-            "study": ccfg.name, "estimator": ec.label, "method": ec.method, "regression": regname,
+            "study": ccfg.name, "estimator": label, "method": method, "regression": regname,
             "parameter": list(model.param_names), "unit": list(model.param_units), "center": np.nan, "lo": np.nan,
-            "hi": np.nan, "truth": model.theta_true, "prior": model.theta_prior, "kind": "failed", "level": np.nan})],
+            "hi": np.nan, "truth": model.theta_true, "prior": model.theta_prior, "kind": "failed", "level": np.nan,
+            "truth_in_set": pd.array([pd.NA] * model.p, dtype="boolean"),
+            "truth_in_all_intervals": pd.array([pd.NA] * model.p, dtype="boolean")})],
             ignore_index=True)
     keys = list(zip(table["estimator"], table["regression"], strict=True))
     table["time_s"] = [extra[k][0] for k in keys]
@@ -149,6 +161,7 @@ def run_replicate(cfg: StudyConfig, scenario: Scenario, replicate: int, data_dir
 class CampaignResult:
     """table: every completed replicate of the requested scenarios (rows as in :func:`replicate_rows`);
     computed / skipped: the (scenario, replicate) pairs run now / found already done;
+    set_aside: (new path, reason) of each replicate file found unreadable, moved aside and recomputed;
     elapsed_s: wall time of this call; workers: the number of Dask workers (0: in-process)."""
 
     config: StudyConfig
@@ -158,17 +171,52 @@ class CampaignResult:
     table: pd.DataFrame
     computed: list[tuple[str, int]] = field(default_factory=list)
     skipped: list[tuple[str, int]] = field(default_factory=list)
+    set_aside: list[tuple[str, str]] = field(default_factory=list)
     elapsed_s: float = 0.0
     workers: int = 0
 
 
+_KEY_COLUMNS = ("scenario", "replicate", "estimator", "regression", "parameter", "kind", "config_hash")
+
+
+def read_replicate(path: str | Path) -> pd.DataFrame:
+    """One replicate file; InputError naming it when it cannot be read back (e.g. truncated) or
+    does not hold a replicate's rows."""
+    path = Path(path)
+    try:
+        table = pd.read_parquet(path)
+    except (OSError, ValueError) as exc:  # pyarrow: ArrowInvalid (a ValueError), ArrowIOError (an OSError)
+        raise InputError(f"replicate file {path} cannot be read ({type(exc).__name__}: {exc})") from None
+    missing = [c for c in _KEY_COLUMNS if c not in table.columns]
+    if table.empty or missing:
+        raise InputError(f"replicate file {path} holds no replicate rows (missing columns {missing})")
+    return table
+
+
+def set_aside(path: Path) -> Path:
+    """Move an unreadable replicate file to ``<name>.corrupt`` (``<name>.<k>.corrupt`` if taken); returns it."""
+    target, k = path.with_name(f"{path.name}.corrupt"), 1
+    while target.exists():
+        target, k = path.with_name(f"{path.name}.{k}.corrupt"), k + 1
+    os.replace(path, target)
+    return target
+
+
 def _pending(cfg: StudyConfig, scenarios, replicates: int, data_dir: Path):
-    todo, done = [], []
+    """(to run, done, set aside): a replicate whose file cannot be read back is set aside and run again;
+    ``set aside`` lists (new path, reason)."""
+    todo, done, aside = [], [], []
     for sc in scenarios:
         chash = config_hash(campaign_config(cfg, sc))
         for r in range(replicates):
-            (done if replicate_path(data_dir, sc.name, chash, r).exists() else todo).append((sc, r))
-    return todo, done
+            path = replicate_path(data_dir, sc.name, chash, r)
+            if path.exists():
+                try:
+                    read_replicate(path)
+                except InputError as exc:
+                    aside.append((str(set_aside(path)), str(exc)))
+            (done if path.exists() else todo).append((sc, r))
+    return todo, done, aside
 
 
 def load_results(cfg: StudyConfig, scenarios, replicates: int, out: str | Path) -> pd.DataFrame:
@@ -180,7 +228,11 @@ def load_results(cfg: StudyConfig, scenarios, replicates: int, out: str | Path) 
         files += [p for r in range(replicates) if (p := replicate_path(data_dir, sc.name, chash, r)).exists()]
     if not files:
         return pd.DataFrame()
-    return pd.concat([pd.read_parquet(p) for p in files], ignore_index=True)
+    try:
+        return pd.concat([read_replicate(p) for p in files], ignore_index=True)
+    except InputError as exc:
+        raise InputError(f"{exc}; run the campaign again: it moves the file aside and computes the replicate "
+                         "anew.") from None
 
 
 def run_campaign(cfg: StudyConfig, replicates: int, scenarios: tuple[Scenario, ...], out: str | Path, *,
@@ -203,7 +255,7 @@ def run_campaign(cfg: StudyConfig, replicates: int, scenarios: tuple[Scenario, .
     data_dir = out / DATA_DIR
     data_dir.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    todo, done = _pending(cfg, scenarios, replicates, data_dir)
+    todo, done, aside = _pending(cfg, scenarios, replicates, data_dir)
     computed: list[tuple[str, int]] = []
     n_workers = 0
     with progress.stage(f"{cfg.name}: campaign, {len(todo)} replicates to run ({len(done)} done)"):
@@ -215,7 +267,7 @@ def run_campaign(cfg: StudyConfig, replicates: int, scenarios: tuple[Scenario, .
             n_workers = _run_dask(cfg, todo, data_dir, workers, scheduler, computed)
     table = load_results(cfg, scenarios, replicates, out)
     return CampaignResult(cfg, tuple(scenarios), replicates, out, table, computed,
-                          [(sc.name, r) for sc, r in done], time.perf_counter() - t0, n_workers)
+                          [(sc.name, r) for sc, r in done], aside, time.perf_counter() - t0, n_workers)
 
 
 def _run_dask(cfg, todo, data_dir: Path, workers: int, scheduler: str | None, computed: list) -> int:

@@ -7,18 +7,23 @@ seed. See ``studies/*.toml`` for commented examples.
 
 from __future__ import annotations
 
-import tomllib
-from dataclasses import dataclass, field
+import numbers
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from boundid.errors import StudyError
+from boundid.errors import InputError, StudyError
 from boundid.experiments.measurement import TorqueNoise
-from boundid.studies.schema import Section
+from boundid.studies import sizing
+from boundid.studies.registry import ROBOT_OPTIONS, closed_loop_options, make_robot
+from boundid.studies.schema import Section, read_toml
 
 ROBOTS = ("direct_drive", "h4", "linear_toy")
 REGRESSIONS = ("inverse_dynamic", "filtered_dynamic", "supplied_energy", "filtered_power")
 METHODS = ("obe", "rls", "ols", "wls", "kalman")
 SDP_SETS = ("outer", "inner", "john")
+# folders other commands write beside the study pages (boundid bench, boundid teach): a study may
+# not take their name, or its report would replace them
+RESERVED_NAMES = ("benchmarks", "teaching")
 
 
 @dataclass(frozen=True)
@@ -120,20 +125,37 @@ class StudyConfig:
     file: Path
 
     def with_seed(self, seed: int) -> StudyConfig:
-        from dataclasses import replace
-
+        """The same study with another seed (an integer >= 0, as numpy's SeedSequence needs)."""
+        if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
+            raise InputError(f"the seed must be an integer >= 0, got {seed!r}.")
         return replace(self, seed=int(seed))
 
 
+_POSITIVE = {"lo": 0.0, "strict_lo": True}
 _ESTIMATOR_OPTIONS = {
-    # method: {option: (type, allowed values or None)}
-    "obe": {"form": (str, ("standard", "factorized")), "criterion": (str, ("volume", "trace", "dasgupta-huang")),
-            "e_max": (float, None)},
-    "rls": {"theta0": (float, None), "P0": (float, None), "forgetting": (float, None)},
-    "ols": {"level": (float, None)},
-    "wls": {"level": (float, None)},
-    "kalman": {"theta0": (float, None), "P0": (float, None), "R": (float, None), "Q": (float, None)},
+    # method: {option: (choices of a string option, or the range of a number as Section.float keywords)}
+    "obe": {"form": ("standard", "factorized"), "criterion": ("volume", "trace", "dasgupta-huang"),
+            "e_max": _POSITIVE},
+    "rls": {"theta0": {}, "P0": _POSITIVE, "forgetting": {"lo": 0.0, "strict_lo": True, "hi": 1.0}},
+    "ols": {"level": {"lo": 0.0, "strict_lo": True, "hi": 1.0, "strict_hi": True}},
+    "wls": {"level": {"lo": 0.0, "strict_lo": True, "hi": 1.0, "strict_hi": True}},
+    "kalman": {"theta0": {}, "P0": _POSITIVE, "R": _POSITIVE, "Q": {"lo": 0.0}},
 }
+
+
+def _option_help(method: str) -> str:
+    parts = []
+    for key, spec in _ESTIMATOR_OPTIONS[method].items():
+        if isinstance(spec, tuple):
+            parts.append(f"{key} (one of {', '.join(spec)})")
+        else:
+            ranges = []
+            if "lo" in spec:
+                ranges.append(f"{'>' if spec.get('strict_lo') else '>='} {spec['lo']:g}")
+            if "hi" in spec:
+                ranges.append(f"{'<' if spec.get('strict_hi') else '<='} {spec['hi']:g}")
+            parts.append(f"{key} (number{' ' + ', '.join(ranges) if ranges else ''})")
+    return f"the {method} estimator takes method, label, regressions and the options {', '.join(parts)}"
 
 
 def _estimator(sec: Section, regressions: tuple[str, ...]) -> EstimatorConfig:
@@ -143,11 +165,14 @@ def _estimator(sec: Section, regressions: tuple[str, ...]) -> EstimatorConfig:
         raise sec.error("regressions", "names no regression model.")
     label = sec.str("label", default=method.upper())
     options = {}
-    for key, (typ, allowed) in _ESTIMATOR_OPTIONS[method].items():
+    for key, spec in _ESTIMATOR_OPTIONS[method].items():
         if not sec.has(key):
             continue
-        options[key] = sec.float(key) if typ is float else sec.str(key, choices=allowed)
-    sec.check_unknown()
+        options[key] = sec.str(key, choices=spec) if isinstance(spec, tuple) else sec.float(key, **spec)
+    if method == "obe" and "e_max" not in options:
+        raise sec.error("e_max", "is required for an obe estimator: the bound on |y - w^T theta| in the "
+                                 "regression's unit (N m for the dynamic models, J for the energy model).")
+    sec.check_unknown(_option_help(method))
     return EstimatorConfig(method, label, regs, options)
 
 
@@ -189,10 +214,29 @@ def _experiment(sec: Section, base: Path) -> ExperimentConfig:
         encoder_counts_per_rev=counts,
         structural_error=sec.float("structural_error", 0.0, lo=0.0),
         validation_duration_s=sec.float("validation_duration_s", 0.0, lo=0.0),
-        options=dict(sec.raw("options", {})),
     )
+    known = closed_loop_options() if exp.control == "closed_loop" else {}
+    exp = replace(exp, options=sec.options("options", known, f"the {exp.control.replace('_', '-')} experiment"))
     sec.check_unknown()
     return exp
+
+
+def _check_size(cfg: StudyConfig, model) -> None:
+    """Refuse up front an experiment too short for its regression models or over the resource budget."""
+    exp, pp = cfg.experiment, cfg.preprocessing
+    if exp.source != "simulate":
+        return  # a recording is checked when it is read (boundid.studies.data)
+    h, where = exp.sample_period_s, f"{cfg.file}: experiment"
+    if "inverse_dynamic" in cfg.regressions or exp.control == "closed_loop":
+        sizing.check_cutoff(h, pp.lowpass_cutoff_hz, pp.decimation, f"{cfg.file}: preprocessing.lowpass_cutoff_hz")
+    sizing.check_length(exp.duration_s, h, model.n_joints, model.p, cfg.regressions, pp.lowpass_cutoff_hz,
+                        pp.decimation, f"{where}.duration_s")
+    duration = exp.duration_s
+    if exp.control == "closed_loop" and exp.validation_duration_s > 0:  # the cross-validation trajectory
+        sizing.check_length(exp.validation_duration_s, h, model.n_joints, model.p, ("inverse_dynamic",),
+                            pp.lowpass_cutoff_hz, pp.decimation, f"{where}.validation_duration_s")
+        duration += exp.validation_duration_s
+    sizing.check_budget(round(duration / h) + 1, model.n_joints, model.p, len(cfg.regressions), where)
 
 
 def load_study(path: str | Path) -> StudyConfig:
@@ -200,16 +244,17 @@ def load_study(path: str | Path) -> StudyConfig:
     path = Path(path)
     if not path.is_file():
         raise StudyError(f"{path}: no such study file (studies live in studies/*.toml).")
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise StudyError(f"{path}: not valid TOML: {exc}") from None
-    top = Section(data, "", path)
+    top = Section(read_toml(path), "", path)
     st = top.section("study", required=True)
+    name = st.plain_name("name")
+    if name.casefold() in RESERVED_NAMES:
+        raise st.error("name", f"{name!r} is the folder of another command's reports "
+                               f"({', '.join(RESERVED_NAMES)}); choose another name.")
     rb = top.section("robot", required=True)
     robot = rb.str("model", choices=ROBOTS)
-    robot_options = dict(rb.raw("options", {}))
+    robot_options = rb.options("options", ROBOT_OPTIONS[robot](), f"robot {robot!r}")
     rb.check_unknown()
+    model = make_robot(robot, robot_options)  # the model checks the option values
     experiment = _experiment(top.section("experiment", required=True), path.parent)
     pp = top.section("preprocessing")
     preprocessing = PreprocessingConfig(
@@ -248,6 +293,12 @@ def load_study(path: str | Path) -> StudyConfig:
     for pair in exact.projections:
         if len(pair) != 2 or not all(isinstance(x, str) for x in pair):
             raise ex.error("projections", f"each entry must be a pair of parameter names, got {pair!r}.")
+        unknown = [x for x in pair if x not in model.param_names]
+        if unknown:
+            raise ex.error("projections", f"{unknown[0]!r} is not a parameter of the {robot} model; its parameters "
+                                          f"are {', '.join(model.param_names)}.")
+        if pair[0] == pair[1]:
+            raise ex.error("projections", f"{pair!r} names one parameter twice; a projection needs two.")
     if exact.regression is not None and exact.e_max is None:
         raise ex.error("e_max", "is required with `regression`: the exact polytope needs the error bound (N m).")
     for e in estimators:
@@ -257,7 +308,7 @@ def load_study(path: str | Path) -> StudyConfig:
                                     "polytope of its own bound, so the two must be equal.")
     ex.check_unknown()
     cfg = StudyConfig(
-        name=st.str("name"),
+        name=name,
         title=st.str("title"),
         description=st.str("description", ""),
         seed=st.int("seed", 0, lo=0),
@@ -275,4 +326,5 @@ def load_study(path: str | Path) -> StudyConfig:
     top.raw("campaign", {})  # [[campaign.scenarios]]: parsed by boundid.studies.scenarios.load_campaign
     st.check_unknown()
     top.check_unknown()
+    _check_size(cfg, model)
     return cfg

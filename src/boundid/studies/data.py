@@ -11,6 +11,7 @@ from boundid.experiments.excitation import RampedMultisine
 from boundid.experiments.recording import Recording, read_recording
 from boundid.experiments.simulation import measure, simulate_open_loop
 from boundid.models import RobotModel
+from boundid.studies import sizing
 from boundid.studies.config import StudyConfig
 
 
@@ -37,6 +38,12 @@ def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> St
         if rec.n_joints != model.n_joints:
             raise StudyError(f"{cfg.file}: the recording has {rec.n_joints} joints, the {model.name} model "
                              f"{model.n_joints}; map one q and one tau column per joint.")
+        pp, where = cfg.preprocessing, f"{cfg.file}: the recording {m.file.name}"
+        if "inverse_dynamic" in cfg.regressions:
+            sizing.check_cutoff(rec.h, pp.lowpass_cutoff_hz, pp.decimation, f"{where} at h = {rec.h:g} s")
+        sizing.check_budget(rec.t.size, rec.n_joints, model.p, len(cfg.regressions), where)
+        sizing.check_length(float(rec.t[-1] - rec.t[0]), rec.h, model.n_joints, model.p, cfg.regressions,
+                            pp.lowpass_cutoff_hz, pp.decimation, f"{where} ({rec.t.size} samples)")
         return StudyData(recording=rec, info={"source": str(m.file)})
     if exp.control == "open_loop":
         return _open_loop(cfg, model, rng)

@@ -25,9 +25,7 @@ def closed_loop_data(cfg: StudyConfig, model: RobotModel, rng: np.random.Generat
         duration_s=exp.duration_s, validation_duration_s=exp.validation_duration_s,
         fs_hz=1.0 / exp.sample_period_s, counts_per_rev=exp.encoder_counts_per_rev or 65536,
         coulomb_width=exp.coulomb_width_rad_s, structural=exp.structural_error, torque_noise=exp.torque_noise,
-        **{k: v for k, v in exp.options.items() if k in ("amplifier_gain", "torque_limit", "bandwidth_hz",
-                                                         "substeps", "optimize_evals",
-                                                         "fast_period", "slow_fraction")},
+        **exp.options,  # checked against registry.closed_loop_options() when the study was read
     )
     recs, info = simulate_h4_experiment(rng, h4cfg, model)
 

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 
-from boundid.errors import BoundidError, InfeasibleDataError, SolverError, StudyError
+from boundid.errors import RUN_FAILURES, StudyError
 from boundid.estimators import OBE, RLS, Estimate, KalmanEstimator, ols, wls
 from boundid.estimators.certify import validate
 from boundid.experiments import regression as reg_builders
@@ -130,19 +131,32 @@ class ExactResult:
 
     @property
     def consistent(self) -> bool:
+        """Whether the data respect the bound (False also when the consistency LP failed: gamma* NaN)."""
         return self.gamma_star <= 1.0
+
+
+def _reason(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}"
 
 
 def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, guaranteed: dict[str, Estimate],
                  progress: Progress) -> ExactResult:
+    """The exact optima of ``reg``'s polytope; a step that fails (LP, SDP, certificate) is recorded in
+    ``errors`` by name and the others go on."""
     center, half = prior_box(model, cfg.prior)
     P = Polytope.from_strips(reg.W, reg.y, cfg.exact.e_max, box=(center - half, center + half))
     t0 = time.perf_counter()
-    gamma = P.consistency().gamma
+    try:
+        gamma, failed = P.consistency().gamma, None
+    except RUN_FAILURES as exc:
+        gamma, failed = float("nan"), _reason(exc)
     res = ExactResult(reg.model, cfg.exact.e_max, P, gamma, time_s={"consistency": time.perf_counter() - t0})
     if cfg.experiment.source == "simulate":
         ratio = np.abs(reg.y - reg.W @ model.theta_true) / cfg.exact.e_max
         res.truth_error_ratio, res.truth_violations = float(ratio.max()), int(np.sum(ratio > 1.0))
+    if failed is not None:
+        res.errors["consistency"] = failed
+        return res
     if not res.consistent:
         res.errors["bounds"] = (f"the data contradict the bound e_max = {cfg.exact.e_max:g} {reg.unit}: the "
                                 f"smallest consistent bound is {gamma * cfg.exact.e_max:.4g} {reg.unit}")
@@ -150,7 +164,10 @@ def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, guarantee
     if cfg.exact.lp_bounds or cfg.exact.sdp:
         with progress.stage(f"{cfg.name}: exact LP bounds ({reg.n_rows} strips)"):
             t0 = time.perf_counter()
-            res.bounds = P.bounds()
+            try:
+                res.bounds = P.bounds()
+            except RUN_FAILURES as exc:
+                res.errors["bounds"] = _reason(exc)
             res.time_s["lp_bounds"] = time.perf_counter() - t0
     solvers = {"outer": outer_ellipsoid, "inner": inner_ellipsoid, "john": john_outer}
     for name in cfg.exact.sdp:
@@ -158,31 +175,44 @@ def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, guarantee
             t0 = time.perf_counter()
             try:
                 res.sdp[name] = solvers[name](P)
-            except BoundidError as exc:
-                res.errors[name] = f"{type(exc).__name__}: {exc}"
+            except RUN_FAILURES as exc:
+                res.errors[name] = _reason(exc)
             res.time_s[f"sdp_{name}"] = time.perf_counter() - t0
     have_volumes = "outer" in res.sdp and "inner" in res.sdp
     for label, est in guaranteed.items():
-        res.certificates[label] = validate(est, P, outer=res.sdp.get("outer"), inner=res.sdp.get("inner"),
-                                           volumes=have_volumes)
+        try:
+            res.certificates[label] = validate(est, P, outer=res.sdp.get("outer"), inner=res.sdp.get("inner"),
+                                               volumes=have_volumes)
+        except RUN_FAILURES as exc:
+            res.errors[f"certificate of {label}"] = _reason(exc)
     return res
 
 
 # ------------------------------------------------------------------------------ the study
 
 
+class Failure(NamedTuple):
+    """A stage of a run that failed: stage ("estimator", "exact optima", "validation", "figure" ...),
+    subject (e.g. "OBE-standard / filtered_dynamic") and the reason (exception type and message)."""
+
+    stage: str
+    subject: str
+    reason: str
+
+
 @dataclass
 class StudyResult:
     """Everything a study run produced; ``table`` is the tidy results table; ``failures`` holds
-    the estimators that failed (e.g. the standard-form OBE losing positive definiteness), with
-    the reason, for the report: a failure is shown, never replaced by another answer."""
+    the stages that failed (e.g. the standard-form OBE losing positive definiteness, a
+    re-simulation that diverges), with the reason, for the report: a failure is shown, never
+    replaced by another answer, and the rest of the run goes on."""
 
     config: StudyConfig
     model: RobotModel
     data: StudyData
     regressions: dict[str, Regression]
     estimates: dict[tuple[str, str], Estimate]
-    failures: dict[tuple[str, str], str]
+    failures: list[Failure]
     exact: ExactResult | None
     validation: dict
     table: pd.DataFrame
@@ -191,23 +221,40 @@ class StudyResult:
 
 def tidy_table(cfg: StudyConfig, model: RobotModel, estimates: dict[tuple[str, str], Estimate],
                exact: ExactResult | None) -> pd.DataFrame:
-    """One row per estimator x regression x parameter: centre, lo, hi, truth, prior, kind."""
-    rows = []
+    """One row per estimator x regression x parameter: centre, lo, hi, truth, prior, kind, and two
+    containments of the whole true vector theta_true (the same on every row of an estimate; NA for
+    measured data, whose truth is unknown):
+
+    truth_in_set : theta_true lies in the estimate's set -- its ellipsoid (guaranteed or confidence
+        set), or the exact polytope for "LP exact"; NA for a point estimate (no set)
+    truth_in_all_intervals : lo_j <= theta_true_j <= hi_j for every parameter j, i.e. theta_true lies
+        in the set's bounding box. Implied by truth_in_set, not the converse: a truth in a corner of
+        the box, outside the ellipsoid, has True here and False there.
+    """
+    truth = model.theta_true
+    known = cfg.experiment.source == "simulate"
+    sets = []  # (label, method, regression, kind, centre, (lo, hi), truth in set, level)
     for (label, regname), est in estimates.items():
-        lo, hi = est.intervals
-        for j, name in enumerate(model.param_names):
-            rows.append({"study": cfg.name, "estimator": label, "method": est.method, "regression": regname,
-                         "parameter": name, "unit": model.param_units[j], "center": est.center[j], "lo": lo[j],
-                         "hi": hi[j], "truth": model.theta_true[j], "prior": model.theta_prior[j],
-                         "kind": est.kind, "level": est.level})
+        in_set = est.contains(truth) if est.ellipsoid is not None else pd.NA
+        sets.append((label, est.method, regname, est.kind, est.center, est.intervals, in_set, est.level))
     if exact is not None and exact.bounds is not None:
         b = exact.bounds
+        sets.append(("LP exact", "LP", exact.regression, "exact", 0.5 * (b.lo + b.hi), (b.lo, b.hi),
+                     bool(exact.polytope.contains(truth)), None))
+    rows = []
+    for label, method, regname, kind, center, (lo, hi), in_set, level in sets:
+        in_box = bool(np.all((lo <= truth) & (truth <= hi)))
         for j, name in enumerate(model.param_names):
-            rows.append({"study": cfg.name, "estimator": "LP exact", "method": "LP", "regression": exact.regression,
-                         "parameter": name, "unit": model.param_units[j], "center": 0.5 * (b.lo[j] + b.hi[j]),
-                         "lo": b.lo[j], "hi": b.hi[j], "truth": model.theta_true[j], "prior": model.theta_prior[j],
-                         "kind": "exact", "level": None})
-    return pd.DataFrame(rows)
+            rows.append({"study": cfg.name, "estimator": label, "method": method, "regression": regname,
+                         "parameter": name, "unit": model.param_units[j], "center": center[j], "lo": lo[j],
+                         "hi": hi[j], "truth": truth[j], "prior": model.theta_prior[j], "kind": kind,
+                         "level": level, "truth_in_set": in_set if known else pd.NA,
+                         "truth_in_all_intervals": in_box if known else pd.NA})
+    table = pd.DataFrame(rows)
+    for col in ("truth_in_set", "truth_in_all_intervals"):
+        if col in table:
+            table[col] = table[col].astype("boolean")
+    return table
 
 
 def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
@@ -227,29 +274,40 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
     timings["regressions"] = time.perf_counter() - t0
 
     estimates: dict[tuple[str, str], Estimate] = {}
-    failures: dict[tuple[str, str], str] = {}
+    failures: list[Failure] = []
     t0 = time.perf_counter()
     for ec in cfg.estimators:
         for regname in ec.regressions:
             with progress.stage(f"{cfg.name}: {ec.label} on {regname}"):
                 try:
                     estimates[(ec.label, regname)] = run_estimator(ec, regressions[regname], model, cfg.prior)
-                except (SolverError, InfeasibleDataError) as exc:
-                    failures[(ec.label, regname)] = f"{type(exc).__name__}: {exc}"
+                except RUN_FAILURES as exc:
+                    failures.append(Failure("estimator", f"{ec.label} / {regname}", _reason(exc)))
     timings["estimators"] = time.perf_counter() - t0
 
     exact = None
     if cfg.exact.regression is not None:
         t0 = time.perf_counter()
         guaranteed = {lab: e for (lab, rn), e in estimates.items() if rn == cfg.exact.regression and e.guaranteed}
-        exact = exact_optima(cfg, regressions[cfg.exact.regression], model, guaranteed, progress)
+        try:
+            exact = exact_optima(cfg, regressions[cfg.exact.regression], model, guaranteed, progress)
+        except RUN_FAILURES as exc:
+            failures.append(Failure("exact optima", cfg.exact.regression, _reason(exc)))
+        else:
+            failures += [Failure("exact optima", what, msg) for what, msg in exact.errors.items()]
         timings["exact"] = time.perf_counter() - t0
 
     from boundid.studies.validation import validate_study
 
     t0 = time.perf_counter()
     with progress.stage(f"{cfg.name}: validation"):
-        validation = validate_study(cfg, model, data, estimates)
+        try:
+            validation = validate_study(cfg, model, data, estimates)
+        except RUN_FAILURES as exc:
+            validation = {}
+            failures.append(Failure("validation", "cross-validation trajectory", _reason(exc)))
+    failures += [Failure("re-simulation", rs.label, rs.failure) for rs in validation.get("resimulation", [])
+                 if rs.failure is not None]
     timings["validation"] = time.perf_counter() - t0
     return StudyResult(cfg, model, data, regressions, estimates, failures, exact, validation,
                        tidy_table(cfg, model, estimates, exact), timings)

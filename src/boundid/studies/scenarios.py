@@ -7,7 +7,7 @@ A study file lists them in a ``[campaign]`` table (read here with ``tomllib`` fr
     replicates = 100                      # default of --replicates
 
     [[campaign.scenarios]]
-    name = "gaussian_low"                 # letters, digits, '_' and '-' (it names the result files)
+    name = "gaussian_low"                 # a plain name: letters, digits, '_' and '-' (it names the result files)
     description = "Gaussian torque noise, sigma = 0.5 N m"
     torque = { kind = "gaussian", level = 0.5 }   # kind, level [N m], outlier_rate, outlier_size [N m]
     encoder_counts_per_rev = 4096         # coarser encoder (optional)
@@ -20,17 +20,14 @@ scenario, ``study``: the experiment as the study file describes it.
 
 from __future__ import annotations
 
-import re
-import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 from boundid.errors import StudyError
 from boundid.experiments.measurement import TorqueNoise
 from boundid.studies.config import StudyConfig
-from boundid.studies.schema import Section
+from boundid.studies.schema import Section, read_toml
 
-_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]*$")
 NOISE_KINDS = ("none", "gaussian", "uniform", "bounded_outliers")
 
 
@@ -78,9 +75,7 @@ class CampaignSpec:
 
 
 def _scenario(sec: Section) -> Scenario:
-    name = sec.str("name")
-    if not _NAME.match(name):
-        raise sec.error("name", f"must be letters, digits, '_' or '-' (it names files), got {name!r}.")
+    name = sec.plain_name("name")
     noise = None
     if sec.has("torque"):
         tn = sec.section("torque")
@@ -98,10 +93,7 @@ def _scenario(sec: Section) -> Scenario:
 def load_campaign(cfg: StudyConfig) -> CampaignSpec:
     """Parse the ``[campaign]`` table of ``cfg.file``; StudyError naming file and key on bad input."""
     path = Path(cfg.file)
-    try:
-        data = tomllib.loads(path.read_text())
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise StudyError(f"{path}: cannot read the study file for its [campaign]: {exc}") from None
+    data = read_toml(path)
     if "campaign" not in data:
         return CampaignSpec(replicates=10, scenarios=(Scenario("study", "the experiment of the study file"),))
     sec = Section(data, "", path).section("campaign")

@@ -7,13 +7,63 @@ against its expected type and range here.
 from __future__ import annotations
 
 import builtins
-from collections.abc import Iterable
+import re
+import tomllib
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
 from boundid.errors import StudyError
 
 _MISSING = object()
+
+# A plain name (study, scenario): it names a folder or files, so no path separators, no dots, no
+# leading '-'; at most 64 characters (room for the temporary and hash suffixes of the files).
+PLAIN_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$")
+
+
+def read_toml(path: str | Path) -> dict:
+    """The parsed TOML of a study file; StudyError naming the file for unreadable, non-UTF-8 or bad TOML."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise StudyError(f"{path}: cannot read the study file: {exc.strerror or exc}.") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise StudyError(f"{path}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at line {line}); "
+                         "save the study file as UTF-8.") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise StudyError(f"{path}: not valid TOML: {exc}") from None
+
+
+def describe_option(default: Any) -> str:
+    """The type of an option as a study file writes it, from its default value ("number", "list of 4 strings")."""
+    if isinstance(default, tuple):
+        kind = describe_option(default[0]) if default else "value"
+        return f"list of {len(default)} {kind}s"
+    if isinstance(default, builtins.bool):
+        return "true or false"
+    if isinstance(default, builtins.int):
+        return "integer"
+    if isinstance(default, builtins.float):
+        return "number"
+    return "string"
+
+
+def _matches(value: Any, default: Any) -> bool:
+    if isinstance(default, builtins.bool) or isinstance(value, builtins.bool):
+        return isinstance(value, builtins.bool) and isinstance(default, builtins.bool)
+    if isinstance(default, builtins.float):
+        return isinstance(value, builtins.int | builtins.float)
+    if isinstance(default, tuple):
+        return (isinstance(value, builtins.list) and len(value) == len(default)
+                and all(_matches(v, d) for v, d in zip(value, default, strict=True)))
+    return isinstance(value, type(default))
 
 
 class Section:
@@ -53,7 +103,7 @@ class Section:
         return v
 
     def float(self, key: str, default: Any = _MISSING, lo: float | None = None, hi: float | None = None,
-              strict_lo: bool = False) -> float:
+              strict_lo: bool = False, strict_hi: bool = False) -> float:
         v = self._get(key, default)
         if v is None:
             return v
@@ -62,8 +112,8 @@ class Section:
         v = builtins.float(v)
         if lo is not None and (v < lo or (strict_lo and v == lo)):
             raise self.error(key, f"must be {'>' if strict_lo else '>='} {lo}, got {v}.")
-        if hi is not None and v > hi:
-            raise self.error(key, f"must be <= {hi}, got {v}.")
+        if hi is not None and (v > hi or (strict_hi and v == hi)):
+            raise self.error(key, f"must be {'<' if strict_hi else '<='} {hi}, got {v}.")
         return v
 
     def int(self, key: str, default: Any = _MISSING, lo: int | None = None) -> int:
@@ -110,8 +160,44 @@ class Section:
     def raw(self, key: str, default: Any = _MISSING) -> Any:
         return self._get(key, default)
 
-    def check_unknown(self) -> None:
-        """Unknown keys are typos until proven otherwise: refuse them."""
+    def plain_name(self, key: str) -> str:
+        """A name that becomes a folder or file name: letters, digits, '_' and '-' (see PLAIN_NAME)."""
+        v = self.str(key)
+        if not PLAIN_NAME.match(v):
+            raise self.error(key, f"must be a plain name of letters, digits, '_' or '-' (at most 64, not starting "
+                                  f"with '_' or '-'): it names a folder or files; got {v!r}.")
+        return v
+
+    def options(self, key: str, known: Mapping[str, Any], owner: str) -> dict:
+        """An options table checked against ``known`` = {option: default}: the type of each value is
+        that of its default (a float default accepts integers; a tuple default is a list of that
+        length); lists come back as tuples. Unknown options are refused, listing the known ones."""
+        table = self.section(key)
+        out = {}
+        for name, value in table.data.items():
+            if not known:
+                raise table.error(name, f"unknown option: {owner} takes no options; remove the table.")
+            if name not in known:
+                listing = ", ".join(f"{k} ({describe_option(d)})" for k, d in known.items())
+                raise table.error(name, f"unknown option for {owner}; the known ones are: {listing}.")
+            default = known[name]
+            if not _matches(value, default):
+                kind = describe_option(default)
+                article = "" if kind.startswith("true") else ("an " if kind[0] in "aeiou" else "a ")
+                raise table.error(name, f"must be {article}{kind} (default {default!r}), got {value!r}.")
+            if isinstance(value, builtins.list):
+                value = tuple(builtins.float(v) if isinstance(d, builtins.float) else v
+                              for v, d in zip(value, default, strict=True))
+            elif isinstance(default, builtins.float):
+                value = builtins.float(value)
+            out[name] = value
+            table._read.add(name)
+        return out
+
+    def check_unknown(self, known: str | None = None) -> None:
+        """Unknown keys are typos until proven otherwise: refuse them. ``known`` describes the keys
+        this table accepts (default: the keys read so far)."""
         unknown = sorted(set(self.data) - self._read)
         if unknown:
-            raise self.error(unknown[0], f"unknown key; the keys read here are {', '.join(sorted(self._read))}.")
+            known = known or f"the keys read here are {', '.join(sorted(self._read))}"
+            raise self.error(unknown[0], f"unknown key; {known}.")

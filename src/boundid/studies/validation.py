@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from boundid.errors import BoundidError
+from boundid.errors import RUN_FAILURES
 from boundid.estimators import Estimate
 from boundid.experiments.simulation import simulate_open_loop
 from boundid.models import RobotModel
@@ -51,14 +51,14 @@ def _mass_matrix_pd(model: RobotModel, q: np.ndarray, theta: np.ndarray) -> bool
 
 def resimulate(cfg: StudyConfig, model: RobotModel, data: StudyData, label: str, theta: np.ndarray) -> Resimulation:
     exp, rec = cfg.experiment, data.recording
-    if not _mass_matrix_pd(model, rec.q, theta):
-        return Resimulation(label, None, None, "M(q) is not positive definite along the trajectory: "
-                                               "these parameters describe no physical robot")
     try:
+        if not _mass_matrix_pd(model, rec.q, theta):
+            return Resimulation(label, None, None, "M(q) is not positive definite along the trajectory: "
+                                                   "these parameters describe no physical robot")
         traj = simulate_open_loop(model, data.excitation, exp.duration_s, exp.sample_period_s, theta=theta,
                                   coulomb_width=exp.coulomb_width_rad_s, rtol=1e-8, atol=1e-8)
-    except (BoundidError, np.linalg.LinAlgError) as exc:
-        return Resimulation(label, None, None, f"simulation failed: {exc}")
+    except RUN_FAILURES as exc:  # e.g. a "math domain error" when the identified dynamics diverge
+        return Resimulation(label, None, None, f"simulation failed: {type(exc).__name__}: {exc}")
     rms = np.sqrt(np.mean((traj.q - rec.q) ** 2, axis=0))
     return Resimulation(label, traj.q, rms)
 
