@@ -11,7 +11,7 @@ A study file lists them in a ``[campaign]`` table (read here with ``tomllib`` fr
     description = "Gaussian torque noise, sigma = 0.5 N m"
     torque = { kind = "gaussian", level = 0.5 }   # kind, level [N m], outlier_rate, outlier_size [N m]
     encoder_counts_per_rev = 4096         # coarser encoder (optional)
-    structural_error = 2.0                # experiment.structural_error (closed loop only; H4: 1 = physical)
+    structural_error = 1.5                # experiment.structural_error (closed loop only; H4: 1 = physical, < 1.74)
 
 A key left out keeps the study's value; ``torque`` replaces the study's torque noise as a whole
 (its own keys default to TorqueNoise's). Without a ``[campaign]`` table, the campaign runs one
