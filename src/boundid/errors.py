@@ -26,3 +26,8 @@ class UnreachablePoseError(BoundidError, ValueError):
 
 class StudyError(BoundidError, ValueError):
     """A study file that cannot be run: missing key, wrong type, unknown value."""
+
+
+class NumericalError(BoundidError, ArithmeticError):
+    """A recursion's state stopped being a finite, positive definite one (data scaled too far for
+    floating point); the message names the row and the fix, and the estimator is left unchanged."""
