@@ -226,6 +226,35 @@ def test_dasgupta_huang_weight_minimises_sigma():
     assert n_updates > 100
 
 
+@pytest.mark.parametrize("alpha_max", [0.2, 0.5, 0.9, 0.999])
+def test_dasgupta_huang_weight_respects_alpha_max(alpha_max):
+    """Reference: minimize_scalar of sigma'(lambda) on [0, 1) without the cap (convex form,
+    REFERENCES §1). Always 0 <= lambda <= alpha_max; lambda == alpha_max exactly when the
+    unconstrained optimum lies above the cap (or sigma' keeps falling to lambda -> 1, the branch
+    1 + beta (G - 1) <= 0), and lambda equals the unconstrained optimum below it."""
+    rng = np.random.default_rng(13)
+    capped = inside = 0
+    for k in range(400):
+        sigma = rng.uniform(0.05, 3.0)
+        G = 1.0 if k % 10 == 0 else np.exp(rng.uniform(-4, 4))
+        eps = rng.uniform(-3.0, 3.0)
+
+        def s(lam, sigma=sigma, G=G, eps=eps):
+            return (1 - lam) * sigma + lam - lam * (1 - lam) * eps**2 / (1 - lam + lam * G)
+        lam, alpha = K.weight_dh(sigma, G, eps, alpha_max)
+        assert 0.0 <= lam <= alpha_max and alpha == 1.0 - lam
+        free = minimize_scalar(s, bounds=(0.0, 1.0 - 1e-12), method="bounded", options={"xatol": 1e-12}).x
+        if lam == 0.0:
+            continue
+        if free > alpha_max + 1e-6:
+            assert lam == alpha_max
+            capped += 1
+        elif free < alpha_max - 1e-6:
+            assert lam == pytest.approx(free, abs=1e-5)
+            inside += 1
+    assert capped > 20 and inside > 20
+
+
 def test_cardano_root_matches_numpy_roots():
     """The cubic solver vs numpy.roots (companion-matrix eigenvalues)."""
     rng = np.random.default_rng(4)
