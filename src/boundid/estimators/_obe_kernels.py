@@ -397,6 +397,8 @@ def run_standard(P, c, state, W, Y, E, crit, selective, alpha_max, stop_on_outli
                             n_brk += 1
                         elif not sigma_ok:
                             n_bad += 1
+                        elif lam == 0.0:  # a zero-weight step (selective=False) leaves the state exactly
+                            step_err = 0.0
                         else:
                             step_err = downdate_error(rmax, omega) + SIGMA_ERROR
                         bound = bound * (alpha * sigma / sigma_new) + step_err
@@ -539,12 +541,15 @@ def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_
                 for a in range(n):
                     xa = sa * X[a, a]
                     ra = row[a]
-                    rr = math.sqrt(xa * xa + ra * ra)
+                    if ra == 0.0:  # nothing to rotate: exact (a zero-weight step changes nothing)
+                        rr, ct, st = xa, 1.0, 0.0
+                    else:
+                        rr = math.sqrt(xa * xa + ra * ra)
+                        ct = xa / rr
+                        st = ra / rr
                     if not (rr > 0.0 and rr < np.inf):
                         definite = False
                     inv = 1.0 / rr
-                    ct = xa * inv
-                    st = ra * inv
                     cs = ct * sa
                     ss = st * sa
                     X[a, a] = rr
@@ -570,6 +575,8 @@ def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_
                     n_brk += 1
                 elif not sigma_ok:
                     n_bad += 1
+                elif lam == 0.0:  # zero weight (selective=False): every rotation is skipped, exactly
+                    step_err = 0.0
                 else:
                     step_err = step_base + SIGMA_ERROR
                 bound = bound * (alpha * sigma / sigma_new) + step_err
