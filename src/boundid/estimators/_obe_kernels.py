@@ -5,7 +5,17 @@ row w, target y, bound e; innovation eps = y - w^T c, G = w^T M^-1 w, T = tr M^-
 H = |M^-1 w|^2. The weight rules below take the strip *after clipping and normalising* to
 gamma = 1 (the row divided by the clipped half-width), and return the convex-combination weight
 lambda together with alpha = 1 - lambda (computed without cancellation), so that
-M' = alpha M + lambda w w^T, sigma' = alpha sigma + lambda - lambda alpha eps^2 / (alpha + lambda G).
+M' = alpha M + lambda w w^T, sigma' = alpha sigma + lambda - lambda alpha eps^2 / (alpha + lambda G)
+(computed as a sum of non-negative terms, :func:`sigma_update`).
+
+Numerical watch. Both loops accumulate in state[S_BOUND] a first-order bound on how far rounding
+may have moved the Mahalanobis^2 of any point of E: each update adds its own rounding (a few u
+for the factorized form; :func:`downdate_error` for the standard form, whose M^-1 is updated by
+subtraction), and older errors are carried with the factor alpha sigma / sigma': the pencil
+sigma' - q'(theta) = alpha (sigma - q(theta)) + lambda (1 - residual^2) passes an error in q to
+the next step multiplied by alpha, and d2 = q / sigma. A row where M^-1 proves indefinite, or
+sigma' leaves (0, 1], makes the bound infinite. The estimator turns the bound into kind
+"guaranteed" or "unverified" (:mod:`boundid.estimators.obe`).
 """
 
 from __future__ import annotations

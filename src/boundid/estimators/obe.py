@@ -12,13 +12,15 @@ the same recursion:
   cheap, but M^-1 is a covariance-like matrix and each rank-one downdate *subtracts*: a step that
   shrinks the ellipsoid along w by a factor rho leaves M^-1's entries with absolute rounding
   u |M^-1| while the result along w is |M^-1| / rho, so about log10(rho) digits are lost
-  (rho reaches 1e15 when a wide prior meets a narrow strip). The loop therefore keeps
-  M^-1 exactly symmetric (upper triangle computed and mirrored), checks definiteness (w^T M^-1 w
-  and the diagonal stay > 0) and sigma (in (0, 1]), and accumulates a first-order bound on the
-  resulting error of the Mahalanobis distance (cancellation and conditioning of each downdate,
-  see :func:`_obe_kernels.downdate_error`; cancellation in sigma'), discounted as later steps
-  down-weight the old information. When it cannot vouch for its result the Estimate has kind
-  "unverified" and says why.
+  (rho reaches 1e15 when a wide prior meets a narrow strip). Computing M^-1[a, b] and
+  M^-1[b, a] separately also let the antisymmetric part of M^-1 grow until the truth fell out
+  (issue 13: Mahalanobis^2 5.7 with kind "guaranteed"). The loop therefore keeps M^-1 exactly
+  symmetric (upper triangle computed and mirrored), computes sigma' without cancellation,
+  checks definiteness (w^T M^-1 w and the diagonal stay > 0) and sigma (in (0, 1]), and
+  accumulates a first-order bound on the error of the Mahalanobis distance (the cancellation
+  and conditioning of each downdate, :func:`_obe_kernels.downdate_error`), carried forward as
+  later steps down-weight the old information. When it cannot vouch for its result the
+  Estimate has kind "unverified" and says why.
 * ``form="factorized"``: the square-root information form of Lesecq & Barraud (seed 000
   eq. (33)-(35), REFERENCES §2): M = X^T X with X upper triangular, z = X c, each update a QR
   of the appended row by Givens rotations. M' = alpha M + lambda w w^T adds, never subtracts,
@@ -321,19 +323,21 @@ class OBE:
             head = (f"the rounding error of the set may reach {bound:.2g} in Mahalanobis^2, above the "
                     f"{VOUCH_TOL:g} the estimator vouches for")
             if conversion > 0.5 * bound:
-                reasons.append(f"{head}; forming the shape matrix from X loses it (Skeel condition of X "
-                               f"{np.sqrt(conversion / (self.p * K.UNIT_ROUNDOFF)):.3g}): nearly collinear "
-                               "regressors")
+                reasons.append(f"{head}; forming the shape matrix from X loses it (Skeel condition number of X "
+                               f"{np.sqrt(conversion / (self.p * K.UNIT_ROUNDOFF)):.3g}: nearly collinear "
+                               "regressors). The estimator's own set is intact: OBE.mahalanobis2 tests points "
+                               "against it")
             elif self.form == "standard":
                 rho, omega = st[K.S_WORST_RHO], st[K.S_WORST_OMEGA]
                 reasons.append(f"{head}; the largest share comes from row {int(st[K.S_WORST_ROW])}, whose rank-one "
                                f"downdate shrank the ellipsoid by a factor {rho:.3g} along that row and left M^-1, "
-                               f"scaled to a unit diagonal, with condition number up to {omega:.3g}: M^-1 is kept by "
-                               "subtraction, and that many times the unit roundoff is lost. Use form='factorized', or "
-                               "a prior closer to the scale the data determine")
+                               f"scaled to a unit diagonal, with condition number up to {omega:.3g}: M^-1 is updated "
+                               "by subtraction, so its relative accuracy is about such factors times the unit "
+                               "roundoff. Use form='factorized', or a prior closer to the scale the data determine")
             else:
-                reasons.append(f"{head}; the largest share comes from row {int(st[K.S_WORST_ROW])}, where sigma was "
-                               "computed with cancellation (a strip that almost misses the ellipsoid)")
+                reasons.append(f"{head}: the rounding of {self.n_updates} update steps (a few units of roundoff "
+                               "each, barely discounted when the weights are small) adds up; the bound is a worst "
+                               "case, not a measured error")
         return "; ".join(reasons) if reasons else None
 
     def estimate(self) -> Estimate:
