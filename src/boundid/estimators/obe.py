@@ -113,11 +113,12 @@ class OBE:
     -----
     ``info`` of the returned Estimate: n_samples, n_updates (update steps computed), n_skipped
     (strips with no information), n_outliers, time_s (compiled loops only), criterion, form,
-    selective, sigma, n_breakdowns (rows where M^-1 proved not positive definite: w^T M^-1 w <= 0,
-    the row skipped, or a diagonal entry <= 0), n_bad_sigma (updates where sigma left (0, 1]),
-    error_bound (first-order bound on the rounding error of the Mahalanobis^2 of a point of the
-    set) and, when kind is "unverified", unverified_reason. A set that cannot be written as a
-    positive definite shape matrix raises SolverError.
+    selective, sigma, n_breakdowns (0: an estimate is only built from a sound state), error_bound
+    (first-order bound on the rounding error of the Mahalanobis^2 of a point of the set) and,
+    when kind is "unverified", unverified_reason. Building the Estimate raises SolverError when the
+    recursion proved its state corrupt: M^-1 indefinite on some row (w^T M^-1 w <= 0, the row then
+    skipped, or a diagonal entry <= 0; counted in ``n_breakdowns``), sigma outside (0, 1], or a set
+    that cannot be written as a positive definite shape matrix.
     The factorized form keeps sigma separately instead of normalising it to 1 (seed eq. (35)
     divides [X, z] by sqrt(sigma)); the ellipsoid is the same.
     """
@@ -297,10 +298,9 @@ class OBE:
             return Ellipsoid(self.center, S)
         except InputError as exc:
             if self.form == "standard":
-                why = (f"the standard-form OBE lost positive definiteness after {self.n_samples} samples "
-                       f"({self.n_breakdowns} breakdown rows): M^-1 is kept by subtraction and rounding "
-                       "made it indefinite (ill-conditioned regressors, or a prior far wider than the bounds). "
-                       "Use form='factorized'.")
+                why = (f"the standard-form OBE lost positive definiteness after {self.n_samples} samples: M^-1 is "
+                       "kept by subtraction and rounding made it indefinite (ill-conditioned regressors, or a prior "
+                       "far wider than the bounds). Use form='factorized'.")
             else:
                 why = (f"the factorized OBE's set after {self.n_samples} samples cannot be written as a positive "
                        "definite shape matrix in double precision (its axes differ by ~8 orders of magnitude or more: "
@@ -311,38 +311,55 @@ class OBE:
     def ellipsoid(self) -> Ellipsoid:
         return self._ellipsoid(self.shape())
 
+    def _check_state(self) -> None:
+        """Raise SolverError if the recursion proved its own state corrupt: then there is no set to
+        report, not even an unverified one."""
+        if self.n_breakdowns and self.form == "standard":
+            raise SolverError(
+                f"the standard-form OBE lost positive definiteness after {self.n_samples} samples: on "
+                f"{self.n_breakdowns} breakdown rows M^-1 proved indefinite (w^T M^-1 w <= 0 or a diagonal entry "
+                "<= 0). M^-1 is kept by subtraction and rounding made it indefinite (ill-conditioned regressors, "
+                "or a prior far wider than the bounds). Use form='factorized'."
+            )
+        if self.n_breakdowns:
+            raise SolverError(
+                f"the factorized OBE's factor X became singular or non-finite on {self.n_breakdowns} update steps "
+                f"after {self.n_samples} samples: the rows overflow or underflow double precision. Scale the "
+                "columns of W (and the prior) to order 1."
+            )
+        if self.n_bad_sigma:
+            raise SolverError(
+                f"the {self.form} OBE's sigma left (0, 1] on {self.n_bad_sigma} update steps after "
+                f"{self.n_samples} samples (it cannot in exact arithmetic): the state is corrupt. "
+                + ("Use form='factorized'." if self.form == "standard" else
+                   "Scale the columns of W and y (and the prior) to order 1.")
+            )
+
     def _unverified_reason(self, bound: float, conversion: float) -> str | None:
         """Why the estimator cannot vouch for its set (None: it can)."""
-        reasons = []
-        if self.n_breakdowns:
-            reasons.append(f"M^-1 proved not positive definite on {self.n_breakdowns} rows (rounding)")
-        if self.n_bad_sigma:
-            reasons.append(f"sigma left (0, 1] on {self.n_bad_sigma} update steps (rounding)")
-        if not reasons and not bound <= VOUCH_TOL:
-            st = self._state
-            head = (f"the rounding error of the set may reach {bound:.2g} in Mahalanobis^2, above the "
-                    f"{VOUCH_TOL:g} the estimator vouches for")
-            if conversion > 0.5 * bound:
-                reasons.append(f"{head}; forming the shape matrix from X loses it (Skeel condition number of X "
-                               f"{np.sqrt(conversion / (self.p * K.UNIT_ROUNDOFF)):.3g}: nearly collinear "
-                               "regressors). The estimator's own set is intact: OBE.mahalanobis2 tests points "
-                               "against it")
-            elif self.form == "standard":
-                rho, omega = st[K.S_WORST_RHO], st[K.S_WORST_OMEGA]
-                reasons.append(f"{head}; the largest share comes from row {int(st[K.S_WORST_ROW])}, whose rank-one "
-                               f"downdate shrank the ellipsoid by a factor {rho:.3g} along that row and left M^-1, "
-                               f"scaled to a unit diagonal, with condition number up to {omega:.3g}: M^-1 is updated "
-                               "by subtraction, so its relative accuracy is about such factors times the unit "
-                               "roundoff. Use form='factorized', or a prior closer to the scale the data determine")
-            else:
-                reasons.append(f"{head}: the rounding of {self.n_updates} update steps (a few units of roundoff "
-                               "each, barely discounted when the weights are small) adds up; the bound is a worst "
-                               "case, not a measured error")
-        return "; ".join(reasons) if reasons else None
+        if bound <= VOUCH_TOL:
+            return None
+        st = self._state
+        head = (f"the rounding error of the set may reach {bound:.2g} in Mahalanobis^2, above the "
+                f"{VOUCH_TOL:g} the estimator vouches for")
+        if conversion > 0.5 * bound:
+            return (f"{head}; forming the shape matrix from X loses it (Skeel condition number of X "
+                    f"{np.sqrt(conversion / (self.p * K.UNIT_ROUNDOFF)):.3g}: nearly collinear regressors). The "
+                    "estimator's own set is intact: OBE.mahalanobis2 tests points against it")
+        if self.form == "standard":
+            rho, omega = st[K.S_WORST_RHO], st[K.S_WORST_OMEGA]
+            return (f"{head}; the largest share comes from row {int(st[K.S_WORST_ROW])}, whose rank-one downdate "
+                    f"shrank the ellipsoid by a factor {rho:.3g} along that row and left M^-1, scaled to a unit "
+                    f"diagonal, with condition number up to {omega:.3g}: M^-1 is updated by subtraction, so its "
+                    "relative accuracy is about such factors times the unit roundoff. Use form='factorized', or a "
+                    "prior closer to the scale the data determine")
+        return (f"{head}: the rounding of {self.n_updates} update steps (a few units of roundoff each, barely "
+                "discounted when the weights are small) adds up; the bound is a worst case, not a measured error")
 
     def estimate(self) -> Estimate:
         """The current set as an :class:`Estimate`: kind "guaranteed" when the estimator can vouch for
         it, else "unverified" with ``info["unverified_reason"]``."""
+        self._check_state()
         S, conversion = self._shape_and_error()
         E = self._ellipsoid(S)
         bound = float(self._state[K.S_BOUND]) + conversion
@@ -361,7 +378,7 @@ class OBE:
             "n_samples": self.n_samples, "n_updates": self.n_updates, "n_skipped": self.n_skipped,
             "n_outliers": int(outliers.size), "time_s": self.time_s, "criterion": self.criterion,
             "form": self.form, "selective": self.selective, "sigma": self.sigma,
-            "n_breakdowns": self.n_breakdowns, "n_bad_sigma": self.n_bad_sigma, "error_bound": bound,
+            "n_breakdowns": self.n_breakdowns, "error_bound": bound,
         }
         if reason is not None:
             info["unverified_reason"] = reason
