@@ -22,7 +22,8 @@ Kind = Literal["guaranteed", "unverified", "statistical", "point"]
 
 @dataclass(frozen=True)
 class History:
-    """Per-sample trace of a recursive estimator, recorded every ``record_every`` samples.
+    """Trace of a recursive estimator: after every ``record_every`` samples, or (the OBE default)
+    after every update step, the only rows where a set-membership estimate changes.
 
     index : (K,) int       sample index (0-based, the row of W just processed)
     centers : (K, p)       estimate after that sample

@@ -20,6 +20,13 @@ residual variance estimate is sigma^2 = J_k / (n_eff - p), the covariance sigma^
 {x : (x - theta)^T (sigma^2 P)^-1 (x - theta) <= chi2_{level, p}} and the intervals
 theta_j -+ t_{(1+level)/2, n_eff - p} sigma sqrt(P_jj). With a negligible prior (P0 -> infinity)
 and lambda = 1 these are exactly the OLS ones (:func:`boundid.estimators.least_squares.ols`).
+
+Failing cleanly. P is a covariance updated by subtraction: rows far from unit scale (data x 1e7
+with P0 = 1000 I) cancel all its digits and P turns indefinite, then NaN. Every call works on a
+copy of the state and checks each row (d > 0 and finite, the a-priori error finite, diag P > 0)
+and the result (theta finite, P positive definite by Cholesky); on failure it raises
+:class:`boundid.errors.NumericalError` naming the row and the fix (scale the data) and commits
+nothing, so the estimator is exactly as it was before the call.
 """
 
 from __future__ import annotations
