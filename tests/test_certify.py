@@ -128,3 +128,25 @@ def test_bad_input_raises_input_error():
         validate(np.eye(2), P)
     with pytest.raises(InputError):
         validate(Ellipsoid.ball(np.zeros(2), 1.0), "polytope")
+
+
+def test_containment_verdict_near_the_boundary():
+    """Closed form: the ball around the vertices' centroid through the farthest vertex has that
+    vertex exactly on its boundary (Mahalanobis^2 = 1 to rounding). Shrunk by 1 - 1e-4 it must not
+    contain the polytope (that vertex at 1/(1 - 1e-4)^2 ~ 1 + 2e-4); grown by 1 + 1e-6 it must (every
+    vertex at <= 1/(1 + 1e-6)^2); the certifier's rounding slack (1e-8) lies between the two."""
+    for seed, p in ((5, 2), (6, 3), (7, 4)):
+        theta, W, y, e = _problem(seed, p, 10 * p)
+        P = Polytope.from_strips(W, y, e)
+        V = P.vertices()
+        c = V.mean(axis=0)
+        r = np.sqrt(np.max(np.sum((V - c) ** 2, axis=1)))
+        ball = Ellipsoid.ball(c, r)
+        exact = validate(ball, P, volumes=False)
+        assert exact.contains_polytope and abs(exact.max_mahalanobis2 - 1.0) < 1e-12
+        shrunk = validate(ball.scaled(1 - 1e-4), P, volumes=False)
+        assert not shrunk.contains_polytope and shrunk.n_outside >= 1
+        assert shrunk.max_mahalanobis2 == pytest.approx(1 / (1 - 1e-4) ** 2, rel=1e-9)
+        grown = validate(ball.scaled(1 + 1e-6), P, volumes=False)
+        assert grown.contains_polytope and grown.n_outside == 0
+        assert grown.max_mahalanobis2 <= 1 / (1 + 1e-6) ** 2 + 1e-12

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from boundid.errors import InputError
+from boundid.errors import InputError, NumericalError
 from boundid.estimators import RLS, KalmanEstimator, ols
 from boundid.estimators.rls import PAPER_P0
 from boundid.sets import log_unit_ball_volume
@@ -189,3 +189,111 @@ def test_bad_input_raises_input_error(call, match):
     """Reference: the documented InputError for each malformed argument."""
     with pytest.raises(InputError, match=match):
         call()
+
+
+def test_rls_update_equals_fit_with_forgetting():
+    """Second route: RLS.update (numpy, row by row) against RLS.fit (compiled) at forgetting 0.97,
+    and both against the closed-form weighted LS minimiser (paper eqs. 18-19)."""
+    _, W, _, y = _problem(8, N=90)
+    lam = 0.97
+    a = RLS(4, forgetting=lam, record_every=5)
+    for w, v in zip(W, y, strict=True):
+        a.update(w, v)
+    b = RLS(4, forgetting=lam, record_every=5)
+    b.fit(W[:40], y[:40])
+    b.fit(W[40:], y[40:])
+    np.testing.assert_allclose(b.theta, a.theta, rtol=1e-10)
+    np.testing.assert_allclose(b.P, a.P, rtol=1e-8, atol=1e-12 * np.abs(a.P).max())
+    assert b.J == pytest.approx(a.J, rel=1e-10) and b.n_eff == pytest.approx(a.n_eff, rel=1e-12)
+    assert b.logdet == pytest.approx(a.logdet, rel=1e-10)
+    wgt = lam ** np.arange(89, -1, -1.0)
+    A = lam**90 * np.eye(4) / PAPER_P0 + (W * wgt[:, None]).T @ W
+    np.testing.assert_allclose(a.theta, np.linalg.solve(A, W.T @ (wgt * y)), rtol=1e-9)
+    common = np.intersect1d(a.history.index, b.history.index)
+    assert common.size >= 17
+    np.testing.assert_allclose(b.history.centers[np.isin(b.history.index, common)],
+                               a.history.centers[np.isin(a.history.index, common)], rtol=1e-8, atol=1e-10)
+
+
+def test_kalman_dense_q_agrees_with_filterpy():
+    """Reference: filterpy.kalman.KalmanFilter (predict with the full Q, Joseph-form update) against
+    the compiled loop, with a dense symmetric positive definite random-walk covariance Q (all
+    off-diagonal entries non-zero), per-row R; and against a plain numpy predict/update."""
+    rng, W, _, y = _problem(9, N=120)
+    A = rng.normal(size=(4, 4))
+    Q = 1e-4 * (A @ A.T + 0.1 * np.eye(4))
+    assert np.all(Q[~np.eye(4, dtype=bool)] != 0) and np.linalg.eigvalsh(Q)[0] > 0
+    R = rng.uniform(0.005, 0.05, size=120)
+    args = (4, rng.normal(size=4), np.diag([4.0, 3.0, 2.0, 1.0]), 0.01)
+    a = KalmanEstimator(*args, Q=Q, record_every=10)
+    b = KalmanEstimator(*args, Q=Q, record_every=10)
+    ea = a.fit(W, y, R=R, engine="filterpy")
+    eb = b.fit(W, y, R=R, engine="numba")
+    np.testing.assert_allclose(eb.center, ea.center, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(b.P, a.P, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(eb.history.log_volumes, ea.history.log_volumes, rtol=1e-9)
+    x, P = args[1].copy(), args[2].copy()
+    for w, v, r in zip(W, y, R, strict=True):
+        P = P + Q
+        S = w @ P @ w + r
+        K = P @ w / S
+        x = x + K * (v - w @ x)
+        P = P - np.outer(K, w @ P)
+    np.testing.assert_allclose(b.theta, x, rtol=1e-9)
+    np.testing.assert_allclose(b.P, P, rtol=1e-8, atol=1e-14)
+
+
+def _state(f):
+    h = f.history
+    return (f.theta.copy(), np.array(f.P, copy=True), f.J, f.n_eff, f.n, f.logdet,
+            None if h is None else (h.index.copy(), h.centers.copy()))
+
+
+def _assert_same_state(a, b):
+    for u, v in zip(a, b, strict=True):
+        if isinstance(u, tuple):
+            for s, t in zip(u, v, strict=True):
+                np.testing.assert_array_equal(s, t)
+        else:
+            np.testing.assert_array_equal(u, v)
+
+
+@pytest.mark.parametrize("how", ["rls fit", "rls update", "kalman numba", "kalman filterpy", "kalman update"])
+def test_filters_fail_cleanly_on_badly_scaled_data(how):
+    """Reference: the state before the failing call. After five rows of ordinary data, rows x 1e8
+    make the covariance form lose positive definiteness within a few rows (data x 1e7 from the
+    start, P0 = 1000, break it at the first row; it used to go on to NaN and end in 'LinAlgError:
+    Eigenvalues did not converge' with a corrupted object). Now NumericalError names the row and
+    the fix, and the estimator is exactly as it was before the call (history included), so it
+    still reports the rows it had."""
+    rng, W, theta, y = _problem(10, N=60)
+    f = RLS(4, record_every=1) if how.startswith("rls") else KalmanEstimator(4, None, 1000.0, R=1.0)
+    f.fit(W[:5], y[:5]) if how != "kalman filterpy" else f.fit(W[:5], y[:5], engine="filterpy")
+    before = _state(f)
+    assert before[4] == 5 and len(before[6][0]) == 5
+    Wb, yb = W[5:] * 1e8, y[5:] * 1e8
+    with pytest.raises(NumericalError, match=r"at row \d+ .*Scale the columns of W and y"):
+        if how == "rls fit":
+            f.fit(Wb, yb)
+        elif how == "kalman numba":
+            f.fit(Wb, yb, engine="numba")
+        elif how == "kalman filterpy":
+            f.fit(Wb, yb, engine="filterpy")
+        else:
+            for w, v in zip(Wb, yb, strict=True):
+                before = _state(f)  # row by row: the failing row leaves the previous rows' state
+                f.update(w, v)
+    _assert_same_state(_state(f), before)
+    est = f.estimate()
+    assert np.all(np.isfinite(est.center)) and est.info["n_samples"] == before[4]
+
+
+@pytest.mark.parametrize("make", [lambda: RLS(4), lambda: KalmanEstimator(4, None, 1000.0, R=1.0)])
+def test_issue_scaled_data_from_the_start_raises_numerical_error(make):
+    """The case of issue 13: data x 1e7 with the paper's P0 = 1000 I. The first rows already cancel
+    all 16 digits of P; NumericalError says so and the filter keeps its prior (n = 0)."""
+    _, W, _, y = _problem(11, N=200)
+    f = make()
+    with pytest.raises(NumericalError, match="Scale the columns"):
+        f.fit(W * 1e7, y * 1e7)
+    assert f.n == 0 and np.array_equal(f.P, 1000.0 * np.eye(4)) and np.all(f.theta == 0)

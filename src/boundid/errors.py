@@ -38,8 +38,14 @@ class OutputError(BoundidError):
     """A report folder that cannot be written: ``--out`` is a file, not writable, or a name escapes it."""
 
 
+class NumericalError(BoundidError, ArithmeticError):
+    """A recursion's state stopped being a finite, positive definite one (data scaled too far for
+    floating point); the message names the row and the fix, and the estimator is left unchanged."""
+
+
 # What one stage of a run (an estimator, a re-simulation, an exact optimum, a figure) may raise on
 # input that is valid but numerically hard: boundid's own errors, and numpy/scipy/math failures
 # (LinAlgError, FloatingPointError, ZeroDivisionError, OverflowError, ValueError such as
 # "math domain error"). A study run records these as failures of that stage and goes on.
 RUN_FAILURES = (BoundidError, np.linalg.LinAlgError, ArithmeticError, ValueError)
+

@@ -5,7 +5,17 @@ row w, target y, bound e; innovation eps = y - w^T c, G = w^T M^-1 w, T = tr M^-
 H = |M^-1 w|^2. The weight rules below take the strip *after clipping and normalising* to
 gamma = 1 (the row divided by the clipped half-width), and return the convex-combination weight
 lambda together with alpha = 1 - lambda (computed without cancellation), so that
-M' = alpha M + lambda w w^T, sigma' = alpha sigma + lambda - lambda alpha eps^2 / (alpha + lambda G).
+M' = alpha M + lambda w w^T, sigma' = alpha sigma + lambda - lambda alpha eps^2 / (alpha + lambda G)
+(computed as a sum of non-negative terms, :func:`sigma_update`).
+
+Numerical watch. Both loops accumulate in state[S_BOUND] a first-order bound on how far rounding
+may have moved the Mahalanobis^2 of any point of E: each update adds its own rounding (a few u
+for the factorized form; :func:`downdate_error` for the standard form, whose M^-1 is updated by
+subtraction), and older errors are carried with the factor alpha sigma / sigma': the pencil
+sigma' - q'(theta) = alpha (sigma - q(theta)) + lambda (1 - residual^2) passes an error in q to
+the next step multiplied by alpha, and d2 = q / sigma. A row where M^-1 proves indefinite, or
+sigma' leaves (0, 1], makes the bound infinite. The estimator turns the bound into kind
+"guaranteed" or "unverified" (:mod:`boundid.estimators.obe`).
 """
 
 from __future__ import annotations
@@ -28,6 +38,31 @@ KAPPA = 1e-8
 ROUND_GUARD = 1e-12
 
 CRITERIA = {"volume": 0, "trace": 1, "dasgupta-huang": 2}
+
+# Unit roundoff of float64 (2^-53).
+UNIT_ROUNDOFF = 2.0**-53
+# sigma stays in (0, 1] in exact arithmetic (sigma0 = 1, sigma' <= alpha sigma + lambda); rounding
+# may add a few units in the last place.
+SIGMA_SLACK = 1e-12
+
+# The state vector both loops update in place:
+S_SIGMA = 0  # sigma
+S_LOGDET = 1  # ln det M
+S_TRACE = 2  # tr M^-1 (trace criterion only)
+S_OMEGA = 3  # standard form: upper bound on ||C^-1||_2, C = M^-1 scaled to a unit diagonal
+S_BOUND = 4  # first-order bound on the rounding error of the Mahalanobis^2 of any point of E
+S_WORST = 5  # the largest error one step added to the bound ...
+S_WORST_ROW = 6  # ... at this row (global index) ...
+S_WORST_RHO = 7  # ... where the step shrank the ellipsoid along w by this factor (den / alpha) ...
+S_WORST_OMEGA = 8  # ... and left ||C^-1|| at most this (standard form; 1 for the factorized form)
+N_STATE = 9
+# Error added to the bound by one factorized step, in units of n u: Givens rotations are backward
+# stable, and M' = alpha M + lambda w w^T adds positive semidefinite terms (no cancellation).
+FACTORIZED_STEP_ERROR = 4.0
+# Relative rounding of sigma' from sigma_update (a sum of non-negative terms over den).
+SIGMA_ERROR = 8.0 * UNIT_ROUNDOFF
+# Error added by one standard-form downdate, in units of u (rmax + 1) ||C'^-1|| (downdate_error).
+STANDARD_STEP_ERROR = 6.0
 
 # Let LLVM reassociate the O(n^2) loops (SIMD reductions); NaN/inf semantics are kept.
 FASTMATH = {"reassoc", "contract", "nsz"}
@@ -150,10 +185,33 @@ def choose_weight(crit, n, sigma, G, eps, T, H, alpha_max):
 @njit(cache=True)
 def clip_strip(y, e, m, r):
     """Clip the strip |y - w^T theta| <= e to E's extent [m - r, m + r] along w (REFERENCES §1).
-    Returns (centre y', half-width gamma')."""
+
+    Returns (centre y', half-width gamma', q) with q = r^2 - (y' - m)^2 >= 0 computed without
+    cancellation as (gap_hi + h)(gap_lo + h): h = (hi - lo) / 2 is the clipped half-width before
+    the KAPPA floor and gap_hi = m + r - hi, gap_lo = lo - (m - r) >= 0 are what the clipped strip
+    leaves of E's extent on either side (0 on a clipped side). :func:`sigma_update` needs q."""
     lo = max(y - e, m - r)
     hi = min(y + e, m + r)
-    return 0.5 * (lo + hi), max(0.5 * (hi - lo), KAPPA * max(r, e))
+    h = 0.5 * (hi - lo)
+    q = ((m + r - hi) + h) * ((lo - (m - r)) + h)
+    return 0.5 * (lo + hi), max(h, KAPPA * max(r, e)), q
+
+
+@njit(cache=True)
+def sigma_update(sigma, lam, alpha, Gn, en, qn):
+    """sigma' of the pencil (REFERENCES §1, gamma = 1), and whether it is consistent.
+
+    The textbook form alpha sigma + lambda - lambda alpha eps^2 / den (den = alpha + lambda G)
+    cancels when sigma' is much smaller than its terms (a strip that grazes E: the unit disc cut
+    by 1 <= x <= 2 leaves sigma' ~ 2e-8 from terms ~ 1, eight digits lost). Over the common
+    denominator the numerator is a sum of non-negative terms,
+        sigma' den = alpha^2 sigma + lambda^2 G + lambda alpha (1 + r^2 - eps^2),   r^2 = sigma G,
+    where r^2 - eps^2 = qn (normalised q of :func:`clip_strip`) >= 0 because the clipped strip
+    lies inside E's extent; computed that way sigma' is accurate to a few units of roundoff
+    (SIGMA_ERROR). ok is False when sigma' leaves (0, 1]: sigma0 = 1 and sigma' <= alpha sigma +
+    lambda in exact arithmetic, so anything else means the state is corrupt."""
+    new = (alpha * alpha * sigma + lam * lam * Gn + lam * alpha * (1.0 + qn)) / (alpha + lam * Gn)
+    return new, bool(new > 0.0 and new <= 1.0 + SIGMA_SLACK)
 
 
 @njit(cache=True)
@@ -164,24 +222,120 @@ def _record(j, k, c, lv, hist_idx, hist_c, hist_lv):
 
 
 @njit(cache=True, fastmath=FASTMATH)
+def downdate(P, c, w, g, kc, kp, inv_a):
+    """The Sherman-Morrison step of the standard form, in place (seed eq. (28)-(30)):
+    c += kc g,  P = (P - kp g g^T) / alpha  with inv_a = 1 / alpha.
+
+    Only the upper triangle is computed and mirrored, so P stays exactly symmetric: computing
+    P[a, b] and P[b, a] separately rounds them differently (and fused multiply-adds make that
+    worse), and the antisymmetric part of M^-1 then grows from step to step until the ellipsoid
+    no longer contains the truth (the first root cause of the silent violations of issue 13).
+
+    Returns (rmax, shrink, wdw, definite): rmax = max_a P_aa / (alpha P'_aa) (how much of a
+    diagonal entry the subtraction cancelled), shrink = max_a alpha P'_aa / P_aa (<= 1),
+    wdw = sum_a w_a^2 P'_aa, and whether every diagonal entry stayed > 0 (one <= 0 proves P'
+    indefinite).
+    """
+    n = c.shape[0]
+    rmax = 0.0
+    shrink = 0.0
+    wdw = 0.0
+    definite = True
+    for a in range(n):
+        c[a] += kc * g[a]
+        ga = kp * g[a]
+        old = P[a, a]
+        for b in range(a, n):
+            v = (P[a, b] - ga * g[b]) * inv_a
+            P[a, b] = v
+            P[b, a] = v
+        new = P[a, a]
+        if new > 0.0 and old > 0.0:
+            r = old * inv_a / new
+            rmax = max(rmax, r)
+            shrink = max(shrink, 1.0 / r)
+            wdw += w[a] * w[a] * new
+        else:
+            definite = False
+    return rmax, shrink, wdw, definite
+
+
+@njit(cache=True)
+def scaled_inverse_norm(P, L, x):
+    """An upper bound on ||C^-1||_2 for the correlation matrix C = D^-1/2 P D^-1/2, D = diag(P):
+    ||L^-1||_F^2 with C = L L^T (Cholesky into the work array L; x is (n,) work). Returns inf if
+    C is not numerically positive definite. O(n^3)."""
+    n = P.shape[0]
+    for j in range(n):
+        if not (P[j, j] > 0.0 and P[j, j] < np.inf):
+            return np.inf
+    for j in range(n):
+        d = 1.0
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return np.inf
+        L[j, j] = math.sqrt(d)
+        for i in range(j + 1, n):
+            t = P[i, j] / math.sqrt(P[i, i] * P[j, j])
+            for k in range(j):
+                t -= L[i, k] * L[j, k]
+            L[i, j] = t / L[j, j]
+    total = 0.0
+    for col in range(n):  # column col of L^-1 by forward substitution
+        for a in range(n):
+            t = 1.0 if a == col else 0.0
+            for k in range(col, a):
+                t -= L[a, k] * x[k]
+            x[a] = t / L[a, a] if a >= col else 0.0
+            total += x[a] * x[a]
+    return total
+
+
+@njit(cache=True)
+def downdate_error(rmax, omega):
+    """Bound on the relative error (Loewner order) that one rounded downdate puts into M^-1:
+    STANDARD_STEP_ERROR u (rmax + 1) omega, with omega >= ||C'^-1||_2 for the correlation matrix
+    C' of the result (M'^-1 scaled to a unit diagonal) and rmax the largest cancellation of a
+    diagonal entry. Each entry carries rounding of at most 3 u (|P_ab| + kp |g_a g_b|) / alpha <=
+    6 u rmax sqrt(P'_aa P'_bb) (as kp g_a^2 <= P_aa), plus u |P'_ab| for storing it, and
+    v^T D' v <= omega v^T P' v: rmax is cancellation along an axis, omega a thin direction across
+    the axes. (Cauchy-Schwarz on |v|^T (sqrt(P'_aa P'_bb)) |v| adds a factor n that rounding with
+    independent signs does not reach: against the same step in exact rational arithmetic the
+    error stayed below 0.74 u (1 + 2 rmax) ||C'^-1||_2 in 800 random steps, n = 2..7, condition
+    numbers up to 1e8 and shrink factors up to 1e14; tests/test_obe_numerics.py checks it.)"""
+    return STANDARD_STEP_ERROR * UNIT_ROUNDOFF * (rmax + 1.0) * omega
+
+
+@njit(cache=True, fastmath=FASTMATH)
 def run_standard(P, c, state, W, Y, E, crit, selective, alpha_max, stop_on_outlier, k0, record_every,
                  log_ball, hist_idx, hist_c, hist_lv, hist_S, out_idx, out_res, counts):
     """Standard (information-matrix) OBE over the rows of W, in place (seed eq. (28)-(30)).
 
-    P : (n, n)   M^-1, kept by Sherman-Morrison (O(n^2) per step)
+    P : (n, n)   M^-1, kept by Sherman-Morrison (O(n^2) per step), exactly symmetric
     c : (n,)     centre
-    state : [sigma, ln det M, tr M^-1]
-    counts (out) : [rows processed, updates, skipped, outliers, records, breakdowns]
-    A breakdown is a step where rounding made w^T P w <= 0 (P lost definiteness): it is skipped.
+    state : (N_STATE,) see the S_* indices; updated in place
+    record_every : record every that many samples; 0: after every update step (the only rows
+                   where the set changes); always after the last row
+    counts (out) : [rows processed, updates, skipped, outliers, records, breakdowns, bad sigma]
+    A breakdown is a row where M^-1 proved not positive definite: w^T P w <= 0 (the row is
+    skipped) or a diagonal entry <= 0 after the downdate. Bad sigma: sigma' outside (0, 1].
+    Both make the error bound infinite.
     """
     n = c.shape[0]
     N = W.shape[0]
     g = np.empty(n)
-    sigma, logdet, T = state[0], state[1], state[2]
-    n_upd = n_skip = n_out = n_rec = n_brk = 0
+    sigma, logdet, T = state[S_SIGMA], state[S_LOGDET], state[S_TRACE]
+    omega, bound = state[S_OMEGA], state[S_BOUND]
+    omega_exact = omega
+    since = 0
+    Lw = np.zeros((n, n))
+    xw = np.empty(n)
+    n_upd = n_skip = n_out = n_rec = n_brk = n_bad = 0
     want_shapes = hist_S.shape[0] > 0
+    on_update = record_every == 0
     processed = N
-    countdown = record_every - k0 % record_every  # record after global samples (k + 1) % record_every == 0
+    countdown = record_every - k0 % record_every if not on_update else -1
     for i in range(N):
         yi = Y[i]
         ei = E[i] + ROUND_GUARD * (abs(yi) + E[i])
@@ -195,8 +349,10 @@ def run_standard(P, c, state, W, Y, E, crit, selective, alpha_max, stop_on_outli
             G += W[i, a] * s
             m += W[i, a] * c[a]
         eps = yi - m
+        updated = False
         if not (G > 0.0 and G < np.inf):
             n_brk += 1
+            bound = np.inf
         else:
             r = math.sqrt(sigma * G)
             if abs(eps) > ei + r:  # E ∩ strip is empty: outlier
@@ -209,7 +365,7 @@ def run_standard(P, c, state, W, Y, E, crit, selective, alpha_max, stop_on_outli
             elif selective and abs(eps) + r <= ei:  # strip contains E: no information
                 n_skip += 1
             else:
-                yc, gam = clip_strip(yi, ei, m, r)
+                yc, gam, q = clip_strip(yi, ei, m, r)
                 s = 1.0 / gam
                 Gn = G * s * s
                 en = (yc - m) * s
@@ -221,31 +377,52 @@ def run_standard(P, c, state, W, Y, E, crit, selective, alpha_max, stop_on_outli
                 lam, alpha = choose_weight(crit, n, sigma, Gn, en, T, Hn, alpha_max)
                 if lam > 0.0 or not selective:
                     n_upd += 1
+                    updated = True
                     if alpha == 0.0:  # n = 1, exact intersection: M' = (w/gamma')^2
                         c[0] += (yc - m) / W[i, 0]
                         P[0, 0] = 1.0 / Gn * P[0, 0]
                         logdet = -math.log(P[0, 0])
                         sigma = 1.0
                         T = P[0, 0]
+                        bound = 4.0 * UNIT_ROUNDOFF  # a fresh interval: only this step's rounding
+                        step_err, rho = bound, Gn
                     else:
                         den = alpha + lam * Gn
-                        kc = lam * en * s / den
-                        kp = lam * s * s / den
                         inv_a = 1.0 / alpha
-                        for a in range(n):
-                            c[a] += kc * g[a]
-                            ga = kp * g[a]
-                            for b in range(n):
-                                P[a, b] = (P[a, b] - ga * g[b]) * inv_a
-                        sigma = alpha * sigma + lam - lam * alpha * en * en / den
+                        rmax, shrink, wdw, definite = downdate(P, c, W[i], g, lam * en * s / den, lam * s * s / den,
+                                                               inv_a)
+                        sigma_new, sigma_ok = sigma_update(sigma, lam, alpha, Gn, en, q * s * s)
                         logdet += (n - 1) * math.log(alpha) + math.log(den)
                         if crit == 1:
                             T = (T - lam * Hn / den) * inv_a
+                        rho = den * inv_a
+                        step_err = np.inf
+                        if definite:  # ||C'^-1|| <= shrink ||C^-1|| + lambda w^T D' w / gamma^2 (M' = alpha M + ...)
+                            omega = omega * shrink + lam * s * s * wdw
+                            since += 1
+                            if omega > 2.0 * omega_exact or since >= 4 * n:  # refresh the bound exactly
+                                omega = omega_exact = scaled_inverse_norm(P, Lw, xw)
+                                since = 0
+                        if not (definite and omega < np.inf):
+                            n_brk += 1
+                        elif not sigma_ok:
+                            n_bad += 1
+                        elif lam == 0.0:  # a zero-weight step (selective=False) leaves the state exactly
+                            step_err = 0.0
+                        else:
+                            step_err = downdate_error(rmax, omega) + SIGMA_ERROR
+                        bound = bound * (alpha * sigma / sigma_new) + step_err
+                        if not bound < np.inf:
+                            bound = np.inf
+                        sigma = sigma_new
+                    if step_err > state[S_WORST]:
+                        state[S_WORST], state[S_WORST_ROW] = step_err, k0 + i
+                        state[S_WORST_RHO], state[S_WORST_OMEGA] = rho, omega
                 else:
                     n_skip += 1
         k = k0 + i
         countdown -= 1
-        if countdown == 0 or i == N - 1:
+        if countdown == 0 or i == N - 1 or (on_update and updated):
             if countdown == 0:
                 countdown = record_every
             _record(n_rec, k, c, log_ball + 0.5 * n * math.log(sigma) - 0.5 * logdet, hist_idx, hist_c, hist_lv)
@@ -254,8 +431,10 @@ def run_standard(P, c, state, W, Y, E, crit, selective, alpha_max, stop_on_outli
                     for b in range(n):
                         hist_S[n_rec, a, b] = sigma * P[a, b]
             n_rec += 1
-    state[0], state[1], state[2] = sigma, logdet, T
-    counts[0], counts[1], counts[2], counts[3], counts[4], counts[5] = processed, n_upd, n_skip, n_out, n_rec, n_brk
+    state[S_SIGMA], state[S_LOGDET], state[S_TRACE] = sigma, logdet, T
+    state[S_OMEGA], state[S_BOUND] = omega, bound
+    counts[0], counts[1], counts[2], counts[3] = processed, n_upd, n_skip, n_out
+    counts[4], counts[5], counts[6] = n_rec, n_brk, n_bad
 
 
 @njit(cache=True)
@@ -292,9 +471,13 @@ def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_
     """Factorized (square-root information) OBE, in place (REFERENCES §2, seed eq. (33)-(35)).
 
     X : (n, n) upper triangular with M = X^T X;  z = X c : (n,);  c : (n,) centre (kept current
-    on return); state : [sigma, unused, tr M^-1 (trace criterion only)].
+    on return); state : (N_STATE,) see the S_* indices (S_OMEGA unused).
     Each update is the QR of [sqrt(alpha) X, sqrt(alpha) z; sqrt(lambda) w^T, sqrt(lambda) y]
     done as n Givens rotations of the appended row (O(n^2)); sigma' = alpha sigma + lambda - tau^2.
+    M' = alpha M + lambda w w^T is a sum of positive semidefinite terms and the rotations are
+    backward stable: each step adds only FACTORIZED_STEP_ERROR n u to the error bound (plus the
+    cancellation in sigma'). record_every and counts as in :func:`run_standard`; a breakdown here
+    is a zero or non-finite diagonal of X.
     """
     n = z.shape[0]
     N = W.shape[0]
@@ -306,12 +489,14 @@ def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_
     dinv = np.empty(n)
     for a in range(n):
         dinv[a] = 1.0 / X[a, a]
-    sigma, T = state[0], state[2]
-    n_upd = n_skip = n_out = n_rec = 0
+    sigma, logdet, T, bound = state[S_SIGMA], state[S_LOGDET], state[S_TRACE], state[S_BOUND]
+    step_base = FACTORIZED_STEP_ERROR * n * UNIT_ROUNDOFF
+    n_upd = n_skip = n_out = n_rec = n_brk = n_bad = 0
     want_shapes = hist_S.shape[0] > 0
+    on_update = record_every == 0
     dirty = False
     processed = N
-    countdown = record_every - k0 % record_every  # record after global samples (k + 1) % record_every == 0
+    countdown = record_every - k0 % record_every if not on_update else -1
     for i in range(N):
         yi = Y[i]
         ei = E[i] + ROUND_GUARD * (abs(yi) + E[i])
@@ -329,6 +514,7 @@ def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_
             m += v[a] * z[a]  # w^T c = v^T z
         eps = yi - m
         r = math.sqrt(sigma * G)
+        updated = False
         if abs(eps) > ei + r:
             out_idx[n_out] = k0 + i
             out_res[n_out] = eps
@@ -339,7 +525,7 @@ def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_
         elif selective and abs(eps) + r <= ei:
             n_skip += 1
         else:
-            yc, gam = clip_strip(yi, ei, m, r)
+            yc, gam, q = clip_strip(yi, ei, m, r)
             s = 1.0 / gam
             Gn = G * s * s
             en = (yc - m) * s
@@ -352,6 +538,7 @@ def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_
             lam, alpha = choose_weight(crit, n, sigma, Gn, en, T, Hn, alpha_max)
             if lam > 0.0 or not selective:
                 n_upd += 1
+                updated = True
                 dirty = True
                 sa = math.sqrt(alpha)
                 sl = math.sqrt(lam) * s
@@ -360,13 +547,19 @@ def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_
                 ry = sl * yc
                 # Givens rotations zeroing the appended row of [sqrt(alpha) X, sqrt(alpha) z; row, ry];
                 # the sqrt(alpha) scaling is folded into the rotation (one pass over X).
+                definite = True
                 for a in range(n):
                     xa = sa * X[a, a]
                     ra = row[a]
-                    rr = math.sqrt(xa * xa + ra * ra)
+                    if ra == 0.0:  # nothing to rotate: exact (a zero-weight step changes nothing)
+                        rr, ct, st = xa, 1.0, 0.0
+                    else:
+                        rr = math.sqrt(xa * xa + ra * ra)
+                        ct = xa / rr
+                        st = ra / rr
+                    if not (rr > 0.0 and rr < np.inf):
+                        definite = False
                     inv = 1.0 / rr
-                    ct = xa * inv
-                    st = ra * inv
                     cs = ct * sa
                     ss = st * sa
                     X[a, a] = rr
@@ -379,23 +572,41 @@ def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_
                     za = z[a]
                     z[a] = cs * za + st * ry
                     ry = ct * ry - ss * za
-                sigma = alpha * sigma + lam - ry * ry
+                sigma_new, sigma_ok = sigma_update(sigma, lam, alpha, Gn, en, q * s * s)
+                den = alpha + lam * Gn
+                if alpha > 0.0:
+                    logdet += (n - 1) * math.log(alpha) + math.log(den)
+                else:
+                    logdet = 2.0 * math.log(X[0, 0])
                 if crit == 1:
-                    T = (T - lam * Hn / (alpha + lam * Gn)) / alpha if alpha > 0.0 else 1.0 / (X[0, 0] * X[0, 0])
+                    T = (T - lam * Hn / den) / alpha if alpha > 0.0 else 1.0 / (X[0, 0] * X[0, 0])
+                step_err = np.inf
+                if not definite:
+                    n_brk += 1
+                elif not sigma_ok:
+                    n_bad += 1
+                elif lam == 0.0:  # zero weight (selective=False): every rotation is skipped, exactly
+                    step_err = 0.0
+                else:
+                    step_err = step_base + SIGMA_ERROR
+                bound = bound * (alpha * sigma / sigma_new) + step_err
+                if not bound < np.inf:
+                    bound = np.inf
+                sigma = sigma_new
+                if step_err > state[S_WORST]:
+                    state[S_WORST], state[S_WORST_ROW] = step_err, k0 + i
+                    state[S_WORST_RHO], state[S_WORST_OMEGA] = den / alpha if alpha > 0.0 else np.inf, 1.0
             else:
                 n_skip += 1
         k = k0 + i
         countdown -= 1
-        if countdown == 0 or i == N - 1:
+        if countdown == 0 or i == N - 1 or (on_update and updated):
             if countdown == 0:
                 countdown = record_every
             if dirty:
                 back_substitute(X, z, c)
                 dirty = False
-            lv = log_ball + 0.5 * n * math.log(sigma)
-            for a in range(n):
-                lv -= math.log(X[a, a])
-            _record(n_rec, k, c, lv, hist_idx, hist_c, hist_lv)
+            _record(n_rec, k, c, log_ball + 0.5 * n * math.log(sigma) - 0.5 * logdet, hist_idx, hist_c, hist_lv)
             if want_shapes:
                 for col in range(n):
                     for a in range(n):
@@ -412,5 +623,6 @@ def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_
             n_rec += 1
     if dirty:
         back_substitute(X, z, c)
-    state[0], state[2] = sigma, T
-    counts[0], counts[1], counts[2], counts[3], counts[4], counts[5] = processed, n_upd, n_skip, n_out, n_rec, 0
+    state[S_SIGMA], state[S_LOGDET], state[S_TRACE], state[S_BOUND] = sigma, logdet, T, bound
+    counts[0], counts[1], counts[2], counts[3] = processed, n_upd, n_skip, n_out
+    counts[4], counts[5], counts[6] = n_rec, n_brk, n_bad

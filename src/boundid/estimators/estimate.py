@@ -6,6 +6,7 @@ truth, containment of the truth) is written once, in the studies and report laye
 
 from __future__ import annotations
 
+import textwrap
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -14,12 +15,15 @@ import pandas as pd
 
 from boundid.sets.ellipsoid import Ellipsoid
 
-Kind = Literal["guaranteed", "statistical", "point"]
+# "unverified": a set-membership estimator's set that the estimator cannot vouch for (rounding may
+# have moved it off the truth); info["unverified_reason"] says why. Only "guaranteed" is guaranteed.
+Kind = Literal["guaranteed", "unverified", "statistical", "point"]
 
 
 @dataclass(frozen=True)
 class History:
-    """Per-sample trace of a recursive estimator, recorded every ``record_every`` samples.
+    """Trace of a recursive estimator: after every ``record_every`` samples, or (the OBE default)
+    after every update step, the only rows where a set-membership estimate changes.
 
     index : (K,) int       sample index (0-based, the row of W just processed)
     centers : (K, p)       estimate after that sample
@@ -42,10 +46,11 @@ class Estimate:
 
     method : str               e.g. "OBE-factorized (volume)", "WLS", "RLS"
     center : (p,)              the point estimate (ellipsoid centre, LS solution)
-    ellipsoid : Ellipsoid      the guaranteed set (``kind="guaranteed"``) or the confidence
-                               ellipsoid at ``level`` (``kind="statistical"``); None if neither
+    ellipsoid : Ellipsoid      the guaranteed set (``kind="guaranteed"``), the set a guaranteed
+                               estimator could not vouch for (``kind="unverified"``), or the
+                               confidence ellipsoid at ``level`` (``kind="statistical"``); None if none
     intervals : (lo, hi)       per-parameter bounds, each (p,)
-    kind : "guaranteed" | "statistical" | "point"
+    kind : "guaranteed" | "unverified" | "statistical" | "point"
     level : float | None       confidence level of statistical sets (e.g. 0.95)
     names : tuple[str] | None  parameter names, from the model
     history : History | None   per-sample trace of recursive estimators
@@ -96,6 +101,7 @@ class Estimate:
         """A plain-text table in the manner of statsmodels' ``summary()``."""
         set_name = {
             "guaranteed": "guaranteed set (contains every parameter consistent with the bounds)",
+            "unverified": "UNVERIFIED set (the estimator cannot vouch that it contains the truth)",
             "statistical": f"confidence set at level {self.level}",
             "point": "point estimate (no set)",
         }[self.kind]
@@ -113,13 +119,16 @@ class Estimate:
             if key in self.info:
                 v = self.info[key]
                 head.append((label, f"{v:.4g}" if isinstance(v, float) else str(v)))
-        if self.guaranteed or self.outliers.size:
+        if self.kind == "unverified":
+            head.append(("Why", self.info.get("unverified_reason", "not given")))
+        if self.kind in ("guaranteed", "unverified") or self.outliers.size:
             head.append(("Outliers", str(self.outliers.size)))
         if self.ellipsoid is not None:
             head.append(("ln volume", f"{self.ellipsoid.log_volume():.6g}"))
         width = 78
         lines = ["=" * width, f"{'boundid estimate':^{width}}", "-" * width]
-        lines += [f"{k + ':':<14}{v}" for k, v in head]
+        for k, v in head:  # long values (the reason of an unverified set) wrap under themselves
+            lines += textwrap.wrap(f"{k + ':':<14}{v}", width, subsequent_indent=" " * 14) or [""]
         lines.append("-" * width)
         table = self.to_frame().to_string(float_format=lambda v: f"{v: .6g}")
         lines += table.splitlines()

@@ -25,7 +25,7 @@ from filterpy.kalman import KalmanFilter
 from scipy import stats
 
 from boundid._validation import as_float_array
-from boundid.errors import InputError
+from boundid.errors import InputError, NumericalError
 from boundid.estimators.estimate import Estimate
 from boundid.estimators.rls import LinearFilter
 from boundid.sets.ellipsoid import log_unit_ball_volume
@@ -106,10 +106,18 @@ class KalmanEstimator(LinearFilter):
         self.kf.P = np.array(value, dtype=float)
 
     def _filterpy_step(self, w: np.ndarray, y: float, r: float) -> float:
-        """One filterpy predict + update; returns the innovation and keeps J, n, n_eff."""
-        self.kf.predict()
-        self.kf.update(np.array([[y]]), R=r, H=w.reshape(1, -1))
-        innov, S = float(self.kf.y[0, 0]), float(self.kf.S[0, 0])
+        """One filterpy predict + update; returns the innovation and keeps J, n, n_eff. Raises
+        NumericalError, with x and P put back, if the step does not stay finite and definite."""
+        x0, P0 = self.kf.x.copy(), self.kf.P.copy()
+        try:
+            self.kf.predict()
+            self.kf.update(np.array([[y]]), R=r, H=w.reshape(1, -1))
+            innov, S = float(self.kf.y[0, 0]), float(self.kf.S[0, 0])
+        except np.linalg.LinAlgError:  # filterpy inverts S = 0
+            innov, S = np.nan, 0.0
+        if not (S > 0.0 and np.isfinite(S) and np.isfinite(innov) and self._valid(self.kf.x, self.kf.P)):
+            self.kf.x, self.kf.P = x0, P0
+            raise self._numerical_error(self.n, S, "the step broke down", w)
         self.J += innov * innov / S
         self.n_eff += 1.0
         self.n += 1
@@ -120,7 +128,7 @@ class KalmanEstimator(LinearFilter):
         t0 = time.perf_counter()
         w, y = self._check_row(w, y)
         r = self.R if R is None else float(_check_r(R, None)[0])
-        innov = self._filterpy_step(w, y, r)
+        innov = self._filterpy_step(w, y, r)  # leaves the state unchanged if it raises
         self.logdet = float(np.linalg.slogdet(self.P)[1])
         self._record_one()
         self.time_s += time.perf_counter() - t0
@@ -142,11 +150,16 @@ class KalmanEstimator(LinearFilter):
         else:
             rows = np.broadcast_to(r, (W.shape[0],))
             last = W.shape[0] - 1
-            for k in range(W.shape[0]):
-                self._filterpy_step(W[k], y[k], rows[k])
-                if self.record_every > 0 and (self.n % self.record_every == 0 or k == last):
-                    self.logdet = float(np.linalg.slogdet(self.P)[1])
-                    self._record_one(last=k == last)
+            snap = self._snapshot()
+            try:
+                for k in range(W.shape[0]):
+                    self._filterpy_step(W[k], y[k], rows[k])
+                    if self.record_every > 0 and (self.n % self.record_every == 0 or k == last):
+                        self.logdet = float(np.linalg.slogdet(self.P)[1])
+                        self._record_one(last=k == last)
+            except NumericalError:
+                self._restore(snap)  # the whole call is undone, not just the failing row
+                raise
             self.logdet = float(np.linalg.slogdet(self.P)[1])
         self.time_s += time.perf_counter() - t0
         return self.estimate()
@@ -160,7 +173,7 @@ class KalmanEstimator(LinearFilter):
         q_on = bool(np.any(self.Q != 0))
         return self._estimate(
             "Kalman (random walk)" if q_on else "Kalman",
-            np.array(self.P, dtype=float),
+            0.5 * (self.P + self.P.T),  # filterpy's Joseph form is symmetric only to rounding
             stats.chi2.ppf(self.level, self.p),
             stats.norm.ppf(0.5 * (1.0 + self.level)),
             np.inf,

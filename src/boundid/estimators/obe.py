@@ -9,17 +9,32 @@ makes the volume step the exact one-step optimum. Two numerically different impl
 the same recursion:
 
 * ``form="standard"``: centre c, sigma and M^-1 kept by Sherman-Morrison (seed 000 eq. (28)-(30));
-  cheap, but on ill-conditioned data M^-1 can lose positive definiteness (detected: SolverError)
-  or, after a step that narrows the ellipsoid by orders of magnitude (a feasible set with an
-  empty interior), accuracy (not detected; seen in stress tests with errors exactly at the
-  bounds). Use it to reproduce the paper's comparison, not for guarantees on degenerate data.
+  cheap, but M^-1 is a covariance-like matrix and each rank-one downdate *subtracts*: a step that
+  shrinks the ellipsoid along w by a factor rho leaves M^-1's entries with absolute rounding
+  u |M^-1| while the result along w is |M^-1| / rho, so about log10(rho) digits are lost
+  (rho reaches 1e15 when a wide prior meets a narrow strip). Computing M^-1[a, b] and
+  M^-1[b, a] separately also let the antisymmetric part of M^-1 grow until the truth fell out
+  (issue 13: Mahalanobis^2 5.7 with kind "guaranteed"). The loop therefore keeps M^-1 exactly
+  symmetric (upper triangle computed and mirrored), computes sigma' without cancellation,
+  checks definiteness (w^T M^-1 w and the diagonal stay > 0) and sigma (in (0, 1]), and
+  accumulates a first-order bound on the error of the Mahalanobis distance (the cancellation
+  and conditioning of each downdate, :func:`_obe_kernels.downdate_error`), carried forward as
+  later steps down-weight the old information. When it cannot vouch for its result the
+  Estimate has kind "unverified" and says why.
 * ``form="factorized"``: the square-root information form of Lesecq & Barraud (seed 000
   eq. (33)-(35), REFERENCES §2): M = X^T X with X upper triangular, z = X c, each update a QR
-  of the appended row by Givens rotations. Stays positive definite.
+  of the appended row by Givens rotations. M' = alpha M + lambda w w^T adds, never subtracts,
+  so it stays positive definite and accurate; it keeps the same watch (sigma, definiteness, and
+  the accuracy of the shape matrix formed from X for the Estimate).
 
 The guarantee: if theta is in E0 and every |e_k| <= e_max_k, theta is in every ellipsoid of the
-recursion. Strips that miss the ellipsoid (the data contradict the bounds) are outliers: they
-are recorded and skipped, or raise :class:`InfeasibleDataError`.
+recursion, up to CONTAINMENT_RTOL: (theta - c)^T S^-1 (theta - c) <= 1 + 1e-9, the rounding
+allowance of every containment test in boundid (``Ellipsoid.contains``). The estimator vouches
+for that ("guaranteed") only when its error bound is below VOUCH_TOL, a tenth of it; otherwise
+the Estimate is "unverified". Rounding of the centre and of y - w^T c (relative to |y|) is not
+in the bound: ROUND_GUARD widens every strip by 1e-12 (|y| + e), 1e4 times that rounding.
+Strips that miss the ellipsoid (the data contradict the bounds) are outliers: they are
+recorded and skipped, or raise :class:`InfeasibleDataError`.
 """
 
 from __future__ import annotations
@@ -35,6 +50,14 @@ from boundid.estimators.estimate import Estimate, History
 from boundid.sets.ellipsoid import Ellipsoid, log_unit_ball_volume
 
 FORMS = ("standard", "factorized")
+# A guaranteed set promises (theta - c)^T S^-1 (theta - c) <= 1 + CONTAINMENT_RTOL for the truth
+# (the default rtol of Ellipsoid.contains, "rounding only").
+CONTAINMENT_RTOL = 1e-9
+# The estimator vouches for its set when its first-order rounding bound is below this; the
+# factor 10 to CONTAINMENT_RTOL covers second-order terms and the bound's constants.
+VOUCH_TOL = 1e-10
+# Rows per compiled call: bounds the history buffers of a long fit (records after every update).
+CHUNK_ROWS = 1 << 16
 
 
 def _shape_matrix(shape0, p: int) -> np.ndarray:
@@ -71,8 +94,10 @@ class OBE:
         Information-matrix recursion, or square-root information (QR by Givens rotations).
     on_outlier : "skip" | "raise"
         What to do with a strip that misses the current ellipsoid.
-    record_every : int
-        Record the centre and ln volume every ``record_every`` samples (and after the last one).
+    record_every : int or None
+        None (default): record the centre and ln volume after every update step, the only
+        samples where the set changes (so the history is complete at a fraction of the cost),
+        and after the last row. An integer k: every k samples (and after the last one).
     record_shapes : bool
         Also record the shape matrices (for small-p teaching pictures; O(p^3) per record).
     selective : bool
@@ -88,14 +113,18 @@ class OBE:
     -----
     ``info`` of the returned Estimate: n_samples, n_updates (update steps computed), n_skipped
     (strips with no information), n_outliers, time_s (compiled loops only), criterion, form,
-    selective, sigma; for the standard form also n_breakdowns (steps where rounding made
-    w^T M^-1 w <= 0: skipped; the form then raises SolverError when the Estimate is built).
+    selective, sigma, n_breakdowns (0: an estimate is only built from a sound state), error_bound
+    (first-order bound on the rounding error of the Mahalanobis^2 of a point of the set) and,
+    when kind is "unverified", unverified_reason. Building the Estimate raises SolverError when the
+    recursion proved its state corrupt: M^-1 indefinite on some row (w^T M^-1 w <= 0, the row then
+    skipped, or a diagonal entry <= 0; counted in ``n_breakdowns``), sigma outside (0, 1], or a set
+    that cannot be written as a positive definite shape matrix.
     The factorized form keeps sigma separately instead of normalising it to 1 (seed eq. (35)
     divides [X, z] by sqrt(sigma)); the ellipsoid is the same.
     """
 
     def __init__(self, p: int, center0=None, shape0=1e6, *, criterion: str = "volume", form: str = "factorized",
-                 on_outlier: str = "skip", record_every: int = 1, record_shapes: bool = False,
+                 on_outlier: str = "skip", record_every: int | None = None, record_shapes: bool = False,
                  selective: bool = True, alpha_max: float = 0.9, names=None):
         if not (isinstance(p, int | np.integer) and p >= 1):
             raise InputError(f"p must be a positive integer (number of parameters), got {p!r}.")
@@ -106,8 +135,9 @@ class OBE:
             raise InputError(f"form must be one of {FORMS}, got {form!r}.")
         if on_outlier not in ("skip", "raise"):
             raise InputError(f"on_outlier must be 'skip' or 'raise', got {on_outlier!r}.")
-        if not (isinstance(record_every, int | np.integer) and record_every >= 1):
-            raise InputError(f"record_every must be an integer >= 1, got {record_every!r}.")
+        if record_every is not None and not (isinstance(record_every, int | np.integer) and record_every >= 1):
+            raise InputError(f"record_every must be an integer >= 1, or None (after every update), "
+                             f"got {record_every!r}.")
         if not (0.0 < alpha_max < 1.0):
             raise InputError(f"alpha_max must lie in (0, 1), got {alpha_max!r}.")
         if names is not None:
@@ -115,7 +145,8 @@ class OBE:
             if len(names) != self.p:
                 raise InputError(f"names must hold {self.p} names, got {len(names)}.")
         self.criterion, self.form, self.on_outlier = criterion, form, on_outlier
-        self.record_every, self.record_shapes = int(record_every), bool(record_shapes)
+        self.record_every = None if record_every is None else int(record_every)
+        self.record_shapes = bool(record_shapes)
         self.selective, self.alpha_max, self.names = bool(selective), float(alpha_max), names
 
         c0 = np.zeros(self.p) if center0 is None else as_vector(center0, "center0", self.p)
@@ -123,14 +154,17 @@ class OBE:
         self.center = c0.copy()
         M0 = np.linalg.inv(S0)
         M0 = 0.5 * (M0 + M0.T)
-        # state = [sigma, ln det M, tr M^-1]
-        self._state = np.array([1.0, np.linalg.slogdet(M0)[1], np.trace(S0)])
+        self._state = np.zeros(K.N_STATE)  # layout: the S_* indices of _obe_kernels
+        self._state[K.S_SIGMA] = 1.0
+        self._state[K.S_LOGDET] = np.linalg.slogdet(M0)[1]
+        self._state[K.S_TRACE] = np.trace(S0)
+        self._state[K.S_OMEGA] = K.scaled_inverse_norm(S0, np.zeros((self.p, self.p)), np.empty(self.p))
         if form == "standard":
             self._P = S0.copy()
         else:
             self._X = np.ascontiguousarray(np.linalg.cholesky(M0).T)  # M = X^T X, X upper
             self._z = self._X @ c0
-        self.n_samples = self.n_updates = self.n_skipped = self.n_breakdowns = 0
+        self.n_samples = self.n_updates = self.n_skipped = self.n_breakdowns = self.n_bad_sigma = 0
         self.time_s = 0.0
         self._hist: list[tuple] = []
         self._outliers: list[np.ndarray] = []
@@ -153,24 +187,37 @@ class OBE:
     def fit(self, W, y, e_max) -> Estimate:
         """Process the rows of W (N, p), y (N,) with bounds e_max (scalar or (N,)), continuing
         from the current state, in one compiled loop. Returns :meth:`estimate`."""
+        return self.partial_fit(W, y, e_max).estimate()
+
+    def partial_fit(self, W, y, e_max) -> OBE:
+        """As :meth:`fit`, but return the estimator itself without building the Estimate (for
+        row-by-row use where the next row depends on the current centre)."""
         W, y = as_regression(W, y)
         if W.shape[1] != self.p:
             raise InputError(f"W must have {self.p} columns (one per parameter), got {W.shape[1]}.")
         e = as_bounds(e_max, W.shape[0])
         W = np.ascontiguousarray(W)
+        for start in range(0, W.shape[0], CHUNK_ROWS):  # bounded history buffers
+            stop = start + CHUNK_ROWS
+            self._run(W[start:stop], y[start:stop], e[start:stop])
+        return self
+
+    def _run(self, W, y, e) -> None:
+        """One compiled loop over checked rows; appends history and outliers."""
         N, p = W.shape
-        n_rec_max = N // self.record_every + 2
+        every = 0 if self.record_every is None else self.record_every  # 0: after every update
+        n_rec_max = N + 1 if every == 0 else N // every + 2
         hist_idx = np.empty(n_rec_max, np.int64)
         hist_c = np.empty((n_rec_max, p))
         hist_lv = np.empty(n_rec_max)
         hist_S = np.empty((n_rec_max if self.record_shapes else 0, p, p))
         out_idx = np.empty(N, np.int64)
         out_res = np.empty(N)
-        counts = np.zeros(6, np.int64)
+        counts = np.zeros(7, np.int64)
         crit = K.CRITERIA[self.criterion]
         stop = self.on_outlier == "raise"
         args = (self._state, W, y, e, crit, self.selective, self.alpha_max, stop, self.n_samples,
-                self.record_every, log_unit_ball_volume(p), hist_idx, hist_c, hist_lv, hist_S, out_idx, out_res,
+                every, log_unit_ball_volume(p), hist_idx, hist_c, hist_lv, hist_S, out_idx, out_res,
                 counts)
         t0 = time.perf_counter()
         if self.form == "standard":
@@ -178,11 +225,12 @@ class OBE:
         else:
             K.run_factorized(self._X, self._z, self.center, *args)
         self.time_s += time.perf_counter() - t0
-        processed, n_upd, n_skip, n_out, n_rec, n_brk = (int(v) for v in counts)
+        processed, n_upd, n_skip, n_out, n_rec, n_brk, n_bad = (int(v) for v in counts)
         self.n_samples += processed + (1 if processed < N else 0)
         self.n_updates += n_upd
         self.n_skipped += n_skip
         self.n_breakdowns += n_brk
+        self.n_bad_sigma += n_bad
         self._hist.append((hist_idx[:n_rec].copy(), hist_c[:n_rec].copy(), hist_lv[:n_rec].copy(),
                            hist_S[:n_rec].copy() if self.record_shapes else None))
         self._outliers.append(out_idx[:n_out].copy())
@@ -194,7 +242,6 @@ class OBE:
                 f"(innovation {out_res[n_out - 1]:.6g}, bound {e[processed]:.6g}). The data are inconsistent "
                 "with e_max (raise the bounds) or that sample is an outlier (use on_outlier='skip')."
             )
-        return self.estimate()
 
     def update(self, w, y, e_max) -> Estimate:
         """Process one observation y = w^T theta + e, |e| <= e_max."""
@@ -204,16 +251,26 @@ class OBE:
     # ------------------------------------------------------------------ results
     @property
     def sigma(self) -> float:
-        return float(self._state[0])
+        return float(self._state[K.S_SIGMA])
+
+    def _shape_and_error(self) -> tuple[np.ndarray, float]:
+        """The shape matrix sigma M^-1 (p, p), and the relative error (Loewner order, first order)
+        of forming it: 0 for the standard form (it stores M^-1); for the factorized form, whose
+        X^-1 comes from back substitution with X X^-1 = I + F, |F| <= gamma_p |X| |X^-1| (Higham,
+        Accuracy and Stability of Numerical Algorithms, §8.1), and whose product X^-1 X^-T rounds
+        by gamma_p |X^-1| |X^-T|, it is gamma_p k (2 + k) with k = || |X| |X^-1| ||_2 the Skeel
+        condition number of X (~1 unless the regressors are nearly collinear)."""
+        if self.form == "standard":
+            return self.sigma * self._P, 0.0
+        Xi = K.upper_inverse(self._X)
+        S = self.sigma * (Xi @ Xi.T)
+        gamma = self.p * K.UNIT_ROUNDOFF / (1.0 - self.p * K.UNIT_ROUNDOFF)
+        skeel = np.linalg.norm(np.abs(self._X) @ np.abs(Xi), 2)
+        return 0.5 * (S + S.T), gamma * skeel * (2.0 + skeel)
 
     def shape(self) -> np.ndarray:
         """The current shape matrix sigma M^-1 (p, p)."""
-        if self.form == "standard":
-            S = self.sigma * self._P
-        else:
-            Xi = K.upper_inverse(self._X)
-            S = self.sigma * (Xi @ Xi.T)
-        return 0.5 * (S + S.T)
+        return self._shape_and_error()[0]
 
     def information(self) -> np.ndarray:
         """The current information matrix M (p, p), E = {(theta - c)^T M (theta - c) <= sigma}."""
@@ -221,18 +278,92 @@ class OBE:
             return np.linalg.inv(self._P)
         return self._X.T @ self._X
 
-    def ellipsoid(self) -> Ellipsoid:
+    def mahalanobis2(self, points) -> np.ndarray:
+        """(theta - c)^T M (theta - c) / sigma for each row of ``points`` (m, p) (<= 1 inside), in the
+        estimator's own representation: |X theta - z|^2 / sigma for the factorized form (no
+        inverse, so it stays accurate when the shape matrix of :meth:`estimate` cannot be formed
+        accurately), the Cholesky factor of M^-1 for the standard form."""
+        T = np.atleast_2d(as_float_array(points, "points"))
+        if T.ndim != 2 or T.shape[1] != self.p:
+            raise InputError(f"points must have {self.p} columns, got shape {T.shape}.")
+        if self.form == "factorized":
+            R = T @ self._X.T - self._z
+        else:
+            L = np.linalg.cholesky(self._P)
+            R = np.linalg.solve(L, (T - self.center).T).T
+        return np.sum(R * R, axis=1) / self.sigma
+
+    def _ellipsoid(self, S: np.ndarray) -> Ellipsoid:
         try:
-            return Ellipsoid(self.center, self.shape())
+            return Ellipsoid(self.center, S)
         except InputError as exc:
+            if self.form == "standard":
+                why = (f"the standard-form OBE lost positive definiteness after {self.n_samples} samples: M^-1 is "
+                       "kept by subtraction and rounding made it indefinite (ill-conditioned regressors, or a prior "
+                       "far wider than the bounds). Use form='factorized'.")
+            else:
+                why = (f"the factorized OBE's set after {self.n_samples} samples cannot be written as a positive "
+                       "definite shape matrix in double precision (its axes differ by ~8 orders of magnitude or more: "
+                       "a prior far wider than what the data have determined so far, or nearly collinear regressors). "
+                       "Fit more rows, or start from a tighter prior.")
+            raise SolverError(f"{why} ({exc})") from None
+
+    def ellipsoid(self) -> Ellipsoid:
+        return self._ellipsoid(self.shape())
+
+    def _check_state(self) -> None:
+        """Raise SolverError if the recursion proved its own state corrupt: then there is no set to
+        report, not even an unverified one."""
+        if self.n_breakdowns and self.form == "standard":
             raise SolverError(
-                f"the standard-form OBE lost positive definiteness after {self.n_samples} samples "
-                f"({self.n_breakdowns} breakdown steps): ill-conditioned regressors. Use form='factorized'. ({exc})"
-            ) from None
+                f"the standard-form OBE lost positive definiteness after {self.n_samples} samples: on "
+                f"{self.n_breakdowns} breakdown rows M^-1 proved indefinite (w^T M^-1 w <= 0 or a diagonal entry "
+                "<= 0). M^-1 is kept by subtraction and rounding made it indefinite (ill-conditioned regressors, "
+                "or a prior far wider than the bounds). Use form='factorized'."
+            )
+        if self.n_breakdowns:
+            raise SolverError(
+                f"the factorized OBE's factor X became singular or non-finite on {self.n_breakdowns} update steps "
+                f"after {self.n_samples} samples: the rows overflow or underflow double precision. Scale the "
+                "columns of W (and the prior) to order 1."
+            )
+        if self.n_bad_sigma:
+            raise SolverError(
+                f"the {self.form} OBE's sigma left (0, 1] on {self.n_bad_sigma} update steps after "
+                f"{self.n_samples} samples (it cannot in exact arithmetic): the state is corrupt. "
+                + ("Use form='factorized'." if self.form == "standard" else
+                   "Scale the columns of W and y (and the prior) to order 1.")
+            )
+
+    def _unverified_reason(self, bound: float, conversion: float) -> str | None:
+        """Why the estimator cannot vouch for its set (None: it can)."""
+        if bound <= VOUCH_TOL:
+            return None
+        st = self._state
+        head = (f"the rounding error of the set may reach {bound:.2g} in Mahalanobis^2, above the "
+                f"{VOUCH_TOL:g} the estimator vouches for")
+        if conversion > 0.5 * bound:
+            return (f"{head}; forming the shape matrix from X loses it (Skeel condition number of X "
+                    f"{np.sqrt(conversion / (self.p * K.UNIT_ROUNDOFF)):.3g}: nearly collinear regressors). The "
+                    "estimator's own set is intact: OBE.mahalanobis2 tests points against it")
+        if self.form == "standard":
+            rho, omega = st[K.S_WORST_RHO], st[K.S_WORST_OMEGA]
+            return (f"{head}; the largest share comes from row {int(st[K.S_WORST_ROW])}, whose rank-one downdate "
+                    f"shrank the ellipsoid by a factor {rho:.3g} along that row and left M^-1, scaled to a unit "
+                    f"diagonal, with condition number up to {omega:.3g}: M^-1 is updated by subtraction, so its "
+                    "relative accuracy is about such factors times the unit roundoff. Use form='factorized', or a "
+                    "prior closer to the scale the data determine")
+        return (f"{head}: the rounding of {self.n_updates} update steps (a few units of roundoff each, barely "
+                "discounted when the weights are small) adds up; the bound is a worst case, not a measured error")
 
     def estimate(self) -> Estimate:
-        """The current guaranteed set as an :class:`Estimate` (kind="guaranteed")."""
-        E = self.ellipsoid()
+        """The current set as an :class:`Estimate`: kind "guaranteed" when the estimator can vouch for
+        it, else "unverified" with ``info["unverified_reason"]``."""
+        self._check_state()
+        S, conversion = self._shape_and_error()
+        E = self._ellipsoid(S)
+        bound = float(self._state[K.S_BOUND]) + conversion
+        reason = self._unverified_reason(bound, conversion)
         idx, cs, lvs, Ss = zip(*self._hist, strict=True) if self._hist else ((), (), (), ())
         p = self.p
         history = History(
@@ -247,11 +378,12 @@ class OBE:
             "n_samples": self.n_samples, "n_updates": self.n_updates, "n_skipped": self.n_skipped,
             "n_outliers": int(outliers.size), "time_s": self.time_s, "criterion": self.criterion,
             "form": self.form, "selective": self.selective, "sigma": self.sigma,
+            "n_breakdowns": self.n_breakdowns, "error_bound": bound,
         }
-        if self.form == "standard":
-            info["n_breakdowns"] = self.n_breakdowns
+        if reason is not None:
+            info["unverified_reason"] = reason
         return Estimate(
             method=f"OBE-{self.form} ({self.criterion})", center=E.center.copy(), ellipsoid=E,
-            intervals=E.intervals(), kind="guaranteed", names=self.names, history=history,
-            outliers=outliers, outlier_residuals=residuals, info=info,
+            intervals=E.intervals(), kind="guaranteed" if reason is None else "unverified", names=self.names,
+            history=history, outliers=outliers, outlier_residuals=residuals, info=info,
         )

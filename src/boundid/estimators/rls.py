@@ -20,6 +20,13 @@ residual variance estimate is sigma^2 = J_k / (n_eff - p), the covariance sigma^
 {x : (x - theta)^T (sigma^2 P)^-1 (x - theta) <= chi2_{level, p}} and the intervals
 theta_j -+ t_{(1+level)/2, n_eff - p} sigma sqrt(P_jj). With a negligible prior (P0 -> infinity)
 and lambda = 1 these are exactly the OLS ones (:func:`boundid.estimators.least_squares.ols`).
+
+Failing cleanly. P is a covariance updated by subtraction: rows far from unit scale (data x 1e7
+with P0 = 1000 I) cancel all its digits and P turns indefinite, then NaN. Every call works on a
+copy of the state and checks each row (d > 0 and finite, the a-priori error finite, diag P > 0)
+and the result (theta finite, P positive definite by Cholesky); on failure it raises
+:class:`boundid.errors.NumericalError` naming the row and the fix (scale the data) and commits
+nothing, so the estimator is exactly as it was before the call.
 """
 
 from __future__ import annotations
@@ -32,7 +39,7 @@ from numba import njit
 from scipy import stats
 
 from boundid._validation import as_regression, as_spd, as_vector
-from boundid.errors import InputError
+from boundid.errors import InputError, NumericalError
 from boundid.estimators.estimate import Estimate, History
 from boundid.estimators.least_squares import check_level, check_names
 from boundid.sets.ellipsoid import Ellipsoid, log_unit_ball_volume
@@ -45,7 +52,7 @@ FAST = {"reassoc", "contract", "nsz", "arcp"}
 
 
 @njit(cache=True, fastmath=FAST)
-def filter_loop(W, y, r, inv_lam, Q, theta, P, state, record_every, n0):
+def filter_loop(W, y, r, inv_lam, Q, theta, P, state, record_every, n0, status):
     """Run the RLS / Kalman recursion over the rows of W, in place on ``theta`` and ``P``.
 
     W : (N, p) C-contiguous, y : (N,)
@@ -56,6 +63,10 @@ def filter_loop(W, y, r, inv_lam, Q, theta, P, state, record_every, n0):
     state : (3,) [ln det P, J, n_eff], updated in place (ln det P is recomputed when Q is used)
     record_every : record the state after every sample whose 1-based count is a multiple of it,
                    and after the last row (0: never); n0 = samples already processed before this call
+    status : (2,) out: [-1, 0] on success; else [row (0-based in W) where the innovation variance
+             d = lambda r + w^T P w or the a-priori error stopped being finite (d also > 0), or a
+             diagonal entry of P fell to <= 0, d]; the loop stops there, leaving theta and P (the
+             caller's copies) half-updated.
 
     Returns (index, centers, log_det_P, J, n_eff) at the recorded samples.
     """
@@ -94,15 +105,23 @@ def filter_loop(W, y, r, inv_lam, Q, theta, P, state, record_every, n0):
             s += W[k, i] * acc
             e -= W[k, i] * theta[i]
         d = lam * rk + s
+        if not (d > 0.0 and d < np.inf and abs(e) < np.inf):
+            status[0], status[1] = k, d
+            break
         c = 1.0 / d
         ec = e * c
         sc = np.sqrt(c)
         for i in range(p):
             theta[i] += u[i] * ec
             u[i] *= sc
+        definite = True
         for i in range(p):  # P - v v^T with v = u / sqrt(d): P stays exactly symmetric under fastmath
             for j in range(p):
                 P[i, j] = (P[i, j] - u[i] * u[j]) * inv_lam
+            definite = definite and P[i, i] > 0.0  # a diagonal entry <= 0 proves P indefinite
+        if not definite:
+            status[0], status[1] = k, d
+            break
         # det(P_new) = det(P) (lambda r / d) lambda^-p (matrix determinant lemma)
         ratio *= lam * rk * c
         logdet -= log_lam_p
@@ -123,7 +142,7 @@ def filter_loop(W, y, r, inv_lam, Q, theta, P, state, record_every, n0):
             rec_n[m] = neff
             m += 1
     logdet += np.log(ratio)
-    if has_q:
+    if has_q and status[0] < 0:
         logdet = np.linalg.slogdet(P)[1]
     state[0], state[1], state[2] = logdet, J, neff
     return rec_idx, rec_c, rec_ld, rec_j, rec_n
@@ -150,6 +169,7 @@ class LinearFilter(ABC):
                 raise InputError(f"P0 must be > 0 (a scalar means P0 * I), got {P0}.")
             P0 = float(P0) * np.eye(self.p)
         self.P = as_spd(P0, "P0", self.p).copy()
+        self._p0_max = float(np.max(np.diag(self.P)))
         if not (isinstance(record_every, int | np.integer) and record_every >= 0):
             raise InputError(f"record_every must be an integer >= 0 (0: no history), got {record_every!r}.")
         self.record_every = int(record_every)
@@ -173,16 +193,52 @@ class LinearFilter(ABC):
             raise InputError(f"W must have {self.p} columns (one per parameter), got {W.shape[1]}.")
         return np.ascontiguousarray(W), y
 
+    def _numerical_error(self, row: int, d: float, what: str, W) -> NumericalError:
+        """The error for a state that stopped being finite and positive definite at ``row``."""
+        scale = float(np.max(np.abs(W))) if np.size(W) else float("nan")
+        return NumericalError(
+            f"{type(self).__name__}: at row {row} {what} (innovation variance {d:.3g}): the covariance P lost "
+            f"positive definiteness or overflowed (largest |w| {scale:.3g}, prior P0 up to {self._p0_max:.3g}). "
+            "Scale the columns of W and y to order 1 (and P0 to match) and refit; the estimator is left as it "
+            "was before this call."
+        )
+
+    @staticmethod
+    def _valid(theta, P) -> bool:
+        """theta finite and P positive definite (Cholesky; O(p^3), once per call)."""
+        if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(P))):
+            return False
+        try:
+            np.linalg.cholesky(P)
+        except np.linalg.LinAlgError:
+            return False
+        return True
+
     def _run(self, W, y, r, inv_lam, Q):
-        """The compiled loop on the current state; appends the recorded history."""
+        """The compiled loop on copies of the state, committed only if every row stayed finite;
+        appends the recorded history."""
         theta, P = self.theta.copy(), np.ascontiguousarray(self.P).copy()
         state = np.array([self.logdet, self.J, self.n_eff])
-        rec = filter_loop(W, y, r, inv_lam, Q, theta, P, state, self.record_every, self.n)
+        status = np.array([-1.0, 0.0])
+        rec = filter_loop(W, y, r, inv_lam, Q, theta, P, state, self.record_every, self.n, status)
+        if status[0] >= 0:
+            raise self._numerical_error(self.n + int(status[0]), status[1], "the step broke down", W)
+        if not self._valid(theta, P):
+            raise self._numerical_error(self.n + W.shape[0] - 1, np.nan, "the state is no longer finite and "
+                                        "positive definite", W)
         self.theta, self.P = theta, P
         self.logdet, self.J, self.n_eff = float(state[0]), float(state[1]), float(state[2])
         self.n += W.shape[0]
         if rec[0].size:
             self._chunks.append(rec)
+
+    def _snapshot(self) -> tuple:
+        """Everything a call may change, to put back if it fails."""
+        return (self.theta.copy(), np.array(self.P, copy=True), self.logdet, self.J, self.n_eff, self.n,
+                list(self._chunks))
+
+    def _restore(self, snap: tuple) -> None:
+        self.theta, self.P, self.logdet, self.J, self.n_eff, self.n, self._chunks = snap
 
     def _record_one(self, last: bool = False):
         """After a single-row step: record the state if this sample is due (or is the last of a batch)."""
@@ -279,15 +335,20 @@ class RLS(LinearFilter):
         self.forgetting = lam
 
     def update(self, w, y) -> float:
-        """Process one row w (p,) with measurement y; returns the a-priori error y - w^T theta."""
+        """Process one row w (p,) with measurement y; returns the a-priori error y - w^T theta.
+        Raises NumericalError (state unchanged) if the step does not stay finite."""
         t0 = time.perf_counter()
         w, y = self._check_row(w, y)
         lam = self.forgetting
         e = y - w @ self.theta
         u = self.P @ w
         d = lam + w @ u
-        self.theta = self.theta + u * (e / d)
-        self.P = (self.P - np.outer(u, u) / d) / lam
+        if not (d > 0.0 and np.isfinite(d) and np.isfinite(e)):
+            raise self._numerical_error(self.n, d, "the step broke down", w)
+        theta, P = self.theta + u * (e / d), (self.P - np.outer(u, u) / d) / lam
+        if not self._valid(theta, P):
+            raise self._numerical_error(self.n, d, "the state is no longer finite and positive definite", w)
+        self.theta, self.P = theta, P
         self.logdet += np.log(lam) - np.log(d) - self.p * np.log(lam)
         self.J = lam * (self.J + e * e / d)
         self.n_eff = lam * self.n_eff + 1.0
