@@ -379,7 +379,11 @@ def test_fit_continues_and_update_equals_fit():
             last = one.update(W[k], y[k], e[k])
         for other in (two, last):
             np.testing.assert_allclose(other.center, whole.center, rtol=1e-12, atol=1e-14)
-            np.testing.assert_allclose(other.ellipsoid.shape, whole.ellipsoid.shape, rtol=1e-12, atol=1e-16)
+            # the computed sets agree to rounding; the reported ones are inflated by each run's own
+            # rounding bound (inflation ~1e-13 here), which may differ in its last digits
+            np.testing.assert_allclose(other.ellipsoid.shape / (1 + other.info["inflation"]),
+                                       whole.ellipsoid.shape / (1 + whole.info["inflation"]), rtol=1e-12, atol=1e-16)
+            assert abs(other.info["inflation"] - whole.info["inflation"]) < 1e-10
             assert other.info["n_updates"] == whole.info["n_updates"]
         assert list(whole.history.index) == [6, 13, 20, 27, 34, 41, 48, 49]
         assert set(whole.history.index) <= set(two.history.index)

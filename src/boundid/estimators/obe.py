@@ -29,9 +29,12 @@ the same recursion:
 
 The guarantee: if theta is in E0 and every |e_k| <= e_max_k, theta is in every ellipsoid of the
 recursion, up to CONTAINMENT_RTOL: (theta - c)^T S^-1 (theta - c) <= 1 + 1e-9, the rounding
-allowance of every containment test in boundid (``Ellipsoid.contains``). The estimator vouches
-for that ("guaranteed") only when its error bound is below VOUCH_TOL, a tenth of it; otherwise
-the Estimate is "unverified". Rounding of the centre and of y - w^T c (relative to |y|) is not
+allowance of every containment test in boundid (``Ellipsoid.contains``). The loop's first-order
+bound b on the rounding error of that Mahalanobis^2 is absorbed into the reported set: its shape
+is the computed one times 1 + INFLATION_FACTOR b, so it contains the exact recursion's set. The
+estimator vouches for that ("guaranteed") while b <= VOUCH_MAX, where first order is accurate
+and the inflation invisible (<= 1e-3 relative on the shape); above it the Estimate is
+"unverified" and says why. Rounding of the centre and of y - w^T c (relative to |y|) is not
 in the bound: ROUND_GUARD widens every strip by 1e-12 (|y| + e), 1e4 times that rounding.
 Strips that miss the ellipsoid (the data contradict the bounds) are outliers: they are
 recorded and skipped, or raise :class:`InfeasibleDataError`.
@@ -53,9 +56,11 @@ FORMS = ("standard", "factorized")
 # A guaranteed set promises (theta - c)^T S^-1 (theta - c) <= 1 + CONTAINMENT_RTOL for the truth
 # (the default rtol of Ellipsoid.contains, "rounding only").
 CONTAINMENT_RTOL = 1e-9
-# The estimator vouches for its set when its first-order rounding bound is below this; the
-# factor 10 to CONTAINMENT_RTOL covers second-order terms and the bound's constants.
-VOUCH_TOL = 1e-10
+# The reported shape is inflated by 1 + INFLATION_FACTOR b for a first-order rounding bound b on
+# the Mahalanobis^2 (the factor covers second-order terms and the bound's constants); the set is
+# "guaranteed" only while b <= VOUCH_MAX (inflation <= 1e-3), else "unverified".
+INFLATION_FACTOR = 10.0
+VOUCH_MAX = 1e-4
 # Rows per compiled call: bounds the history buffers of a long fit (records after every update).
 CHUNK_ROWS = 1 << 16
 
@@ -114,8 +119,10 @@ class OBE:
     ``info`` of the returned Estimate: n_samples, n_updates (update steps computed), n_skipped
     (strips with no information), n_outliers, time_s (compiled loops only), criterion, form,
     selective, sigma, n_breakdowns (0: an estimate is only built from a sound state), error_bound
-    (first-order bound on the rounding error of the Mahalanobis^2 of a point of the set) and,
-    when kind is "unverified", unverified_reason. Building the Estimate raises SolverError when the
+    (first-order bound on the rounding error of the Mahalanobis^2 of a point of the set),
+    inflation (the relative enlargement of the reported shape that absorbs it: 10 x error_bound
+    for a guaranteed set, 0 for an unverified one) and, when kind is "unverified",
+    unverified_reason. Building the Estimate raises SolverError when the
     recursion proved its state corrupt: M^-1 indefinite on some row (w^T M^-1 w <= 0, the row then
     skipped, or a diagonal entry <= 0; counted in ``n_breakdowns``), sigma outside (0, 1], or a set
     that cannot be written as a positive definite shape matrix.
@@ -337,11 +344,11 @@ class OBE:
 
     def _unverified_reason(self, bound: float, conversion: float) -> str | None:
         """Why the estimator cannot vouch for its set (None: it can)."""
-        if bound <= VOUCH_TOL:
+        if bound <= VOUCH_MAX:
             return None
         st = self._state
         head = (f"the rounding error of the set may reach {bound:.2g} in Mahalanobis^2, above the "
-                f"{VOUCH_TOL:g} the estimator vouches for")
+                f"{VOUCH_MAX:g} the estimator can absorb into its set")
         if conversion > 0.5 * bound:
             return (f"{head}; forming the shape matrix from X loses it (Skeel condition number of X "
                     f"{np.sqrt(conversion / (self.p * K.UNIT_ROUNDOFF)):.3g}: nearly collinear regressors). The "
@@ -361,9 +368,10 @@ class OBE:
         it, else "unverified" with ``info["unverified_reason"]``."""
         self._check_state()
         S, conversion = self._shape_and_error()
-        E = self._ellipsoid(S)
         bound = float(self._state[K.S_BOUND]) + conversion
         reason = self._unverified_reason(bound, conversion)
+        inflation = INFLATION_FACTOR * bound if reason is None else 0.0
+        E = self._ellipsoid(S * (1.0 + inflation))
         idx, cs, lvs, Ss = zip(*self._hist, strict=True) if self._hist else ((), (), (), ())
         p = self.p
         history = History(
@@ -378,7 +386,7 @@ class OBE:
             "n_samples": self.n_samples, "n_updates": self.n_updates, "n_skipped": self.n_skipped,
             "n_outliers": int(outliers.size), "time_s": self.time_s, "criterion": self.criterion,
             "form": self.form, "selective": self.selective, "sigma": self.sigma,
-            "n_breakdowns": self.n_breakdowns, "error_bound": bound,
+            "n_breakdowns": self.n_breakdowns, "error_bound": bound, "inflation": inflation,
         }
         if reason is not None:
             info["unverified_reason"] = reason
