@@ -61,7 +61,7 @@ def test_volume_chain_and_containment(p, N, seed):
     for r in (outer, john, around):
         assert np.all(r.ellipsoid.contains(V))
     assert np.all(P.contains(boundary(inner.ellipsoid), atol=1e-9))
-    assert set(outer.strips) == set(P.nonredundant())
+    assert outer.info["max_reduced_cost"] <= outer.info["price_tol"]
 
 
 @pytest.mark.parametrize("seed,p,N,min_rounds", [(4, 3, 120, 1), (2, 2, 50, 2)])
