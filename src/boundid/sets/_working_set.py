@@ -23,7 +23,7 @@ normal cone (the cone spanned by the outward normals of the constraints active i
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import highspy
 import numpy as np
@@ -55,10 +55,35 @@ class Block:
     g: np.ndarray | None = None
     d: np.ndarray | None = None
     s: np.ndarray | None = None
+    _kind: str | None = field(default=None, repr=False)
+    _mid: np.ndarray | None = field(default=None, repr=False)
+    _half: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def m(self) -> int:
         return self.A.shape[0]
+
+    def violation(self, sl, X: np.ndarray) -> np.ndarray:
+        """Distance of each row ``sl`` outside [lo, up] at the columns of X (negative inside),
+        computed in place: |act - mid| - half for two-sided rows, act - up or lo - act otherwise."""
+        V = self.activity(sl, X)
+        if self._kind is None:
+            lo_fin, up_fin = np.isfinite(self.lo), np.isfinite(self.up)
+            self._kind = "two" if lo_fin.all() and up_fin.all() else "up" if not lo_fin.any() else \
+                "lo" if not up_fin.any() else "mixed"
+            if self._kind == "two":
+                self._mid, self._half = 0.5 * (self.lo + self.up), 0.5 * (self.up - self.lo)
+        if self._kind == "two":
+            V -= self._mid[sl, None]
+            np.abs(V, out=V)
+            V -= self._half[sl, None]
+        elif self._kind == "up":
+            V -= self.up[sl, None]
+        elif self._kind == "lo":
+            np.subtract(self.lo[sl, None], V, out=V)
+        else:
+            V = np.maximum(self.lo[sl, None] - V, V - self.up[sl, None])
+        return V
 
     def rows(self, idx: np.ndarray) -> np.ndarray:
         """The effective coefficient rows of pool rows ``idx``, (len(idx), p [+ 1])."""
@@ -81,6 +106,23 @@ class Block:
         if self.g is not None:
             R += self.g[sl, None] * X[p][None, :]
         return R
+
+
+def sample_levels(m: int, smallest: int = 10_000, ratio: int = 16) -> tuple[int, ...]:
+    """Sample sizes m / ratio^k (k >= 1) down to ``smallest``, ascending: the stages of a
+    constraint generation over m rows (each stage's working set seeds the next)."""
+    sizes = []
+    n = m // ratio
+    while n >= smallest:
+        sizes.append(n)
+        n //= ratio
+    return tuple(sizes[::-1])
+
+
+def strided_sample(m: int, n: int) -> np.ndarray:
+    """About n of the indices 0..m-1, evenly strided (deterministic; rows of a recording are in
+    time order, so a stride sees the whole experiment)."""
+    return np.arange(0, m, max(1, -(-m // n)), dtype=np.int64)
 
 
 class LPStatusError(Exception):
@@ -120,7 +162,9 @@ class WorkingSetLP:
         self.max_rounds = max_rounds
         self.in_ws = [np.zeros(b.m, dtype=bool) for b in self.blocks]
         self.row_of = [np.full(b.m, -1, dtype=np.int64) for b in self.blocks]
-        #: the part of each block's pool that passes look at (None: all of it)
+        #: the part of each block's pool that passes look at (None: all of it); the caller may
+        #: leave out rows that no future optimum can violate (e.g. strips containing a box that
+        #: contains the working set's polytope)
         self.active: list[np.ndarray | None] = [None] * len(self.blocks)
         self._ws_coef = np.zeros((0, self.n_cols))      # working-set rows as added to HiGHS
         self._ws_lo, self._ws_up = np.zeros(0), np.zeros(0)
@@ -142,10 +186,12 @@ class WorkingSetLP:
     # ------------------------------------------------------------------ working set
     def add_rows(self, b: int, rows: np.ndarray) -> None:
         """Add pool rows ``rows`` of block ``b`` to the working set (duplicates skipped)."""
-        rows = np.unique(np.asarray(rows, dtype=np.int64))
+        rows = np.asarray(rows, dtype=np.int64)
         rows = rows[~self.in_ws[b][rows]]
         if rows.size == 0:
             return
+        rows = np.sort(rows)
+        rows = rows[np.r_[True, rows[1:] != rows[:-1]]]
         blk = self.blocks[b]
         vals = blk.rows(rows)
         if vals.shape[1] < self.n_cols:
@@ -163,6 +209,24 @@ class WorkingSetLP:
         self._ws_up = np.concatenate([self._ws_up, blk.up[rows]])
         self.n_rows += rows.size
 
+    def take_basis(self, other: WorkingSetLP) -> None:
+        """Start from ``other``'s last basis: the same pool rows in the same constraint set,
+        seen in other coordinates (rescaled columns and rows, shifted bounds), so the vertex and
+        its basis carry over and the next solves start where ``other`` stopped."""
+        basis = other.h.getBasis()
+        if not basis.valid:
+            return
+        status = list(basis.row_status)
+        rows = [None] * self.n_rows
+        for b in range(len(self.blocks)):
+            ks = np.flatnonzero(self.in_ws[b] & other.in_ws[b])
+            for k in ks:
+                rows[self.row_of[b][k]] = status[other.row_of[b][k]]
+        if any(r is None for r in rows):
+            return
+        basis.row_status = rows
+        self.h.setBasis(basis)
+
     def ws_rows(self, b: int) -> np.ndarray:
         """Pool indices of block ``b`` in the working set."""
         return np.flatnonzero(self.in_ws[b])
@@ -171,17 +235,20 @@ class WorkingSetLP:
         """Change the bounds of pool row k of block b (and of its working-set copy)."""
         blk = self.blocks[b]
         blk.lo[k], blk.up[k] = lo, up
+        blk._kind = None
         r = self.row_of[b][k]
         if r >= 0:
             self._ws_lo[r], self._ws_up[r] = lo, up
             self.h.changeRowBounds(int(r), lo if np.isfinite(lo) else -_INF, up if np.isfinite(up) else _INF)
 
     # ------------------------------------------------------------------ passes over the pool
-    def violators(self, X: np.ndarray) -> list[list[tuple[int, np.ndarray]]]:
-        """For each column x of X (n_cols, k): the ``batch`` most violated pool rows (violation
-        above ``tol``) not in the working set, as a list of (block, rows); one pass over the pool.
-        Rows in the working set are HiGHS's to satisfy, to its own tolerance."""
+    def violators(self, X: np.ndarray, batch: int | None = None) -> list[list[tuple[int, np.ndarray]]]:
+        """For each column x of X (n_cols, k): the ``batch`` (default ``self.batch``) most violated
+        pool rows (violation above ``tol``) not in the working set, as a list of (block, rows);
+        one pass over the pool. Rows in the working set are HiGHS's to satisfy, to its own
+        tolerance."""
         self.n_passes += 1
+        batch = self.batch if batch is None else batch
         k = X.shape[1]
         found: list[list[tuple[int, np.ndarray, np.ndarray]]] = [[] for _ in range(k)]
         for b, blk in enumerate(self.blocks):
@@ -190,17 +257,16 @@ class WorkingSetLP:
             for start in range(0, m, CHUNK):
                 stop = min(m, start + CHUNK)
                 sl = slice(start, stop) if pool is None else pool[start:stop]
-                R = blk.activity(sl, X)
-                V = np.maximum(blk.lo[sl, None] - R, R - blk.up[sl, None])
-                V[self.in_ws[b][sl]] = -np.inf
+                V = blk.violation(sl, X)
                 hit = V > self.tol
                 if not hit.any():
                     continue
                 idx = np.arange(start, stop) if pool is None else pool[start:stop]
+                hit &= ~self.in_ws[b][idx][:, None]
                 for j in np.flatnonzero(hit.any(axis=0)):
                     sel = np.flatnonzero(hit[:, j])
-                    if sel.size > self.batch:
-                        sel = sel[np.argpartition(V[sel, j], -self.batch)[-self.batch:]]
+                    if sel.size > batch:
+                        sel = sel[np.argpartition(V[sel, j], -batch)[-batch:]]
                     found[j].append((b, idx[sel], V[sel, j]))
         out = []
         for parts in found:
@@ -208,8 +274,7 @@ class WorkingSetLP:
                 out.append([])
                 continue
             vals = np.concatenate([v for _, _, v in parts])
-            cut = np.partition(vals, vals.size - self.batch)[vals.size - self.batch] if vals.size > self.batch \
-                else -np.inf
+            cut = np.partition(vals, vals.size - batch)[vals.size - batch] if vals.size > batch else -np.inf
             out.append([(b, rows[v >= cut]) for b, rows, v in parts])
         return out
 
@@ -240,14 +305,15 @@ class WorkingSetLP:
         costs = np.atleast_2d(np.asarray(costs, dtype=float))
         X = np.empty((costs.shape[0], self.n_cols))
         m0 = self.blocks[0].m if self.blocks else 0
-        stages = [np.unique(np.linspace(0, m0 - 1, n).astype(np.int64)) for n in levels if n < m0] + [None]
+        keep = self.active[0]
+        stages = [strided_sample(m0, n) for n in levels] + [keep]
         for stage in stages:
             self.active[0] = stage
             pending = np.arange(costs.shape[0])
             for _ in range(self.max_rounds):
                 for i in pending:
                     X[i] = self._solve(costs[i])
-                worst = self.violators(X[pending].T)
+                worst = self.violators(X[pending].T, batch=max(4, self.batch // max(1, pending.size // 4)))
                 still = []
                 for i, w in zip(pending, worst, strict=True):
                     for b, rows in w:
@@ -259,7 +325,6 @@ class WorkingSetLP:
                     break
             else:
                 raise SolverError(f"constraint generation did not converge in {self.max_rounds} rounds.")
-        self.active[0] = None
         return X
 
     def minimize(self, cost: np.ndarray) -> tuple[np.ndarray, float]:

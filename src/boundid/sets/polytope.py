@@ -40,7 +40,7 @@ from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError, cKDTree
 
 from boundid._validation import as_bounds, as_float_array, as_matrix, as_regression, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
-from boundid.sets._working_set import CHUNK, Block, LPStatusError, WorkingSetLP
+from boundid.sets._working_set import CHUNK, Block, LPStatusError, WorkingSetLP, sample_levels, strided_sample
 
 #: largest dimension for which vertices() and volume() enumerate vertices exactly
 MAX_VERTEX_DIM = 6
@@ -52,8 +52,6 @@ LP_TOL = 1e-9
 VERTEX_TOL = 1e-8
 #: the bounds are re-solved in the box frame when a half-width in the first frame is outside this
 _FRAME_OK = (0.1, 10.0)
-#: sample sizes of the first constraint-generation stages of bounds() (rows of W)
-_LEVELS = (20_000, 320_000)
 _EPS = np.finfo(float).eps
 
 
@@ -287,7 +285,8 @@ class Polytope:
         for sl in _chunks(N):
             Ws = self.W[sl]
             r[sl] = self.y[sl] - Ws @ origin
-            n[sl] = np.sqrt(np.einsum("ij,ij->i", Ws * scale, Ws * scale))
+            Ws = Ws * scale
+            n[sl] = np.sqrt(np.einsum("ij,ij->i", Ws, Ws))
         n[n == 0] = 1.0
         return _Frame(origin.copy(), scale.copy(), r, n)
 
@@ -391,14 +390,27 @@ class Polytope:
     def _n_half(self) -> int:
         return 0 if self.halfspaces is None else len(self.halfspaces[1])
 
-    def _set_frame(self, F: _Frame) -> None:
-        """Move the LPs to frame F, keeping the working set's rows."""
+    def _box_reach(self, F: _Frame) -> np.ndarray:
+        """Strips not implied by the box [-1, 1]^p of frame F: |g_k|_1 reaches a side (one pass)."""
+        keep = np.zeros(self.n_strips, dtype=bool)
+        for sl in _chunks(self.n_strips):
+            reach = np.abs(self.W[sl]) @ F.scale / F.n[sl]
+            mid, half = F.r[sl] / F.n[sl], self.e_max[sl] / F.n[sl]
+            keep[sl] = reach + np.abs(mid) > half - _TOUCH_TOL * (1.0 + half + np.abs(mid))
+        return np.flatnonzero(keep)
+
+    def _set_frame(self, F: _Frame, pool: np.ndarray | None = None) -> None:
+        """Move the LPs to frame F, keeping the working set's rows; ``pool``: the strips the
+        passes look at (None: all)."""
         old = self._engine
         self._frame = F
         seed = [(0, old.ws_rows(0)), (1, np.arange(self._n_half))] if old is not None else \
             [(0, self._seed(F)), (1, np.arange(self._n_half))]
         self._engine = WorkingSetLP([self._strip_block(F), self._halfspace_block(F)], *self._col_bounds(F),
                                     seed=seed, tol=LP_TOL)
+        if old is not None:
+            self._engine.take_basis(old)
+        self._engine.active[0] = pool
 
     # ------------------------------------------------------------------ LP calls
     def _minimize_many(self, costs_z: np.ndarray, levels: tuple[int, ...] = ()) -> np.ndarray:
@@ -470,7 +482,7 @@ class Polytope:
         cost = np.zeros(p + 1)
         cost[p] = 1.0
         try:
-            x = eng.minimize_many(cost[None, :], levels=_LEVELS)[0]
+            x = eng.minimize_many(cost[None, :], levels=sample_levels(N))[0]
         except LPStatusError:
             res = Consistency(np.inf, np.full(p, np.nan), np.arange(N), np.zeros(0, dtype=int), np.inf)
         else:
@@ -503,52 +515,78 @@ class Polytope:
         t0 = time.perf_counter()
         p = self.dim
         costs = np.vstack([np.eye(p), -np.eye(p)])
-        Z = self._minimize_many(costs, levels=_LEVELS)
-        F = self._frame
-        zlo, zhi = np.diag(Z[:p]), np.diag(Z[p:])
-        hw, cz = 0.5 * (zhi - zlo), 0.5 * (zhi + zlo)
+        stats = {"lp_solves": 0, "passes": 0, "frames": 0}
+
+        def count():
+            stats["lp_solves"] += self._engine.n_solves
+            stats["passes"] += self._engine.n_passes
+            stats["frames"] += 1
+
+        # stages on strided samples; after each, move to the frame of its bounding box (which
+        # contains P's): the next stage and the last one then run where P spans about [-1, 1]
+        levels = sample_levels(self.n_strips)
         resolved = False
-        eng = self._engine
-        stats = {"working_rows": eng.n_rows, "lp_solves": eng.n_solves, "passes": eng.n_passes}
-        if hw.max() > 0:
-            hw_safe = np.maximum(hw, 1e-12 * hw.max())
-            box_frame = self._make_frame(F.to_theta(cz), F.scale * hw_safe)
+        reach = None                                   # strips the current box can leave
+        for stage in [*levels, None]:
+            rows = reach if stage is None else strided_sample(self.n_strips, stage)
+            if stage is not None and reach is not None:
+                rows = np.intersect1d(rows, reach, assume_unique=True)
+            self._theta_engine().active[0] = rows
+            Z = self._minimize_many(costs)
+            F = self._frame
+            zlo, zhi = np.diag(Z[:p]), np.diag(Z[p:])
+            hw, cz = 0.5 * (zhi - zlo), 0.5 * (zhi + zlo)
+            if hw.max() <= 0:
+                break
+            box_frame = self._make_frame(F.to_theta(cz), F.scale * np.maximum(hw, 1e-12 * hw.max()))
             lo_ok, hi_ok = _FRAME_OK
-            if np.any(hw < lo_ok) or np.any(hw > hi_ok) or np.any(np.abs(cz) > hi_ok * np.maximum(hw, 1.0)):
-                self._set_frame(box_frame)             # re-solve where P spans [-1, 1]
+            off = np.any(hw < lo_ok) or np.any(hw > hi_ok) or np.any(np.abs(cz) > hi_ok * np.maximum(hw, 1.0))
+            count()
+            if stage is None and off and not resolved:
+                self._set_frame(box_frame, reach)      # re-solve where P spans [-1, 1]
                 Z = self._minimize_many(costs)
                 F = self._frame
                 resolved = True
-                stats = {k: v + getattr(self._engine, {"working_rows": "n_rows", "lp_solves": "n_solves",
-                                                        "passes": "n_passes"}[k]) for k, v in stats.items()}
-            else:
-                Zt = F.to_theta(Z)
-                self._set_frame(box_frame)
-                Z = (Zt - box_frame.origin) / box_frame.scale
-                F = box_frame
+                count()
+            Zt = F.to_theta(Z)
+            # every later optimum lies in the working set's polytope, inside this stage's
+            # bounding box ([-1, 1]^p in box_frame): a strip containing that box is never violated
+            reach = self._box_reach(box_frame)
+            self._set_frame(box_frame, reach)
+            Z = (Zt - box_frame.origin) / box_frame.scale
+            F = box_frame
+        stats["working_rows"] = self._engine.n_rows
+        stats["strips_reaching_box"] = int(reach.size) if reach is not None else self.n_strips
         X = F.to_theta(Z)
         amin, amax = X[:p], X[p:]
         lo, hi = np.diag(amin).copy(), np.diag(amax).copy()
         self._found.extend(X)
         point = X.mean(axis=0)
-        excess = self._vertex_excess(X, 0.5 * (hi - lo))
+        excess = self._vertex_excess(X, 0.5 * (hi - lo), reach)
         ratio = float(self.residual_ratio(point)[0])
         info = {**stats, "time_s": time.perf_counter() - t0, "resolved_in_box_frame": resolved}
         self._bounds = Bounds(lo, hi, amin, amax, info, point, ratio, excess)
         return self._bounds
 
-    def _vertex_excess(self, X: np.ndarray, half_width: np.ndarray) -> float:
+    def _vertex_excess(self, X: np.ndarray, half_width: np.ndarray, rows: np.ndarray | None = None) -> float:
         """max over points X (m, p) and constraints of violation / stated tolerance (see Bounds);
-        raises SolverError above 1."""
+        raises SolverError above 1. ``rows``: the strips that can be violated at all (the others
+        contain the bounding box of P, which holds X, with a margin; None: every strip)."""
         worst, where = 0.0, ""
-        for sl in _chunks(self.n_strips):
+        idx = np.arange(self.n_strips) if rows is None else rows
+        for sl in _chunks(idx.size):
+            sl = idx[sl]
             Ws = self.W[sl]
             R = np.abs(self.y[sl, None] - Ws @ X.T) - self.e_max[sl, None]
-            tau = VERTEX_TOL * np.linalg.norm(Ws * half_width, axis=1)[:, None] \
-                + 16 * _EPS * (np.abs(self.y[sl, None]) + np.abs(Ws) @ np.abs(X).T)
-            q = R / np.maximum(tau, np.finfo(float).tiny)
+            rows, cols = np.nonzero(R > 0)                # only rows outside their bound need tau
+            if rows.size == 0:
+                continue
+            Wr, Xc = Ws[rows], X[cols]
+            tau = VERTEX_TOL * np.linalg.norm(Wr * half_width, axis=1) \
+                + 16 * _EPS * (np.abs(self.y[sl][rows]) + np.einsum("ij,ij->i", np.abs(Wr), np.abs(Xc)))
+            q = R[rows, cols] / np.maximum(tau, np.finfo(float).tiny)
             if q.max() > worst:
-                worst, where = float(q.max()), f"strip {sl.start + int(np.argmax(q.max(axis=1)))}"
+                worst, where = float(q.max()), f"strip {int(sl[rows[np.argmax(q)]])}"
         if self.box is not None:
             tau = VERTEX_TOL * half_width + 16 * _EPS * np.abs(X)
             q = np.maximum(self.box[0] - X, X - self.box[1]) / np.maximum(tau, np.finfo(float).tiny)
