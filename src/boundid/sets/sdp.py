@@ -55,16 +55,17 @@ class SDPResult:
     info: dict = field(default_factory=dict)
 
 
-def _solve(problem: cp.Problem, allow_fallback: bool, what: str) -> tuple[str, str]:
+def _solve(problem: cp.Problem, allow_fallback: bool, what: str, study_scale: bool = False) -> tuple[str, str]:
     """Solve with Clarabel; returns (solver, status). SCS only with ``allow_fallback``.
 
-    Clarabel runs with gap and feasibility tolerances 1e-7 (``_CLARABEL``): at its default 1e-8 it
-    sometimes stalls on the study-scale problems ("optimal_inaccurate" after ~50 iterations, the
-    objective already right to 1e-8, at twice the cost). Every answer is verified by the caller
-    (containment checked exactly, certificate residual bounded), whatever the tolerance.
+    ``study_scale``: the polytope SDPs (inner, outer) run with gap and feasibility tolerances 1e-7
+    (``_CLARABEL``): at the default 1e-8 Clarabel sometimes stalls on the study-scale problems
+    ("optimal_inaccurate" after ~50 iterations, the objective already right to 1e-8, at twice the
+    cost). Their answers are verified by the caller (containment checked exactly, certificate
+    residual bounded), whatever the tolerance. The small SDPs keep the defaults.
     """
     try:
-        problem.solve(solver=cp.CLARABEL, **_CLARABEL)
+        problem.solve(solver=cp.CLARABEL, **(_CLARABEL if study_scale else {}))
         status = problem.status
     except cp.error.SolverError as exc:
         status = f"solver error ({exc})"
@@ -160,7 +161,7 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
         B = cp.Variable((n, n), PSD=True)
         x0 = cp.Variable(n)
         prob = cp.Problem(cp.Maximize(cp.log_det(B)), [cp.norm(Gw @ B, 2, axis=1) + Gw @ x0 <= hw])
-        solver, status = _solve(prob, allow_fallback, "inner_ellipsoid")
+        solver, status = _solve(prob, allow_fallback, "inner_ellipsoid", study_scale=True)
         Bv, xv = 0.5 * (B.value + B.value.T), x0.value
         viol = (np.linalg.norm(G @ Bv, axis=1) + G @ xv - h) / (1 + np.abs(h))
         new = np.flatnonzero((viol > 1e-7) & ~ws)
@@ -188,7 +189,7 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     return res
 
 
-def _s_procedure(Gs, mid, half, extra, allow_fallback: bool, what: str):
+def _s_procedure(Gs, mid, half, extra, allow_fallback: bool, what: str, study_scale: bool = False):
     """Minimum-volume ellipsoid containing ∩_i {|g_i^T z - mid_i| <= half_i} ∩ (extra quadrics)
     by the S-procedure LMI (Boyd et al. 1994 §3.7.2; REFERENCES §3).
 
@@ -219,7 +220,7 @@ def _s_procedure(Gs, mid, half, extra, allow_fallback: bool, what: str):
                  [Z, b0, -A0]])
     lmi = 0.5 * (M + M.T) << 0
     prob = cp.Problem(cp.Maximize(cp.log_det(A0)), [lmi])
-    solver, status = _solve(prob, allow_fallback, what)
+    solver, status = _solve(prob, allow_fallback, what, study_scale)
     tau_v = np.clip(tau.value, 0, None) if m else np.zeros(0)
     sig_v = np.clip(sig.value, 0, None) if extra else np.zeros(0)
     Zd = lmi.dual_value[: n + 1, : n + 1] if lmi.dual_value is not None else None
@@ -353,7 +354,8 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
         lo = np.concatenate([fixed_lo, exact_lo[k]])
         hi = np.concatenate([fixed_hi, exact_hi[k]])
         mid, half = 0.5 * (lo + hi), np.maximum(0.5 * (hi - lo), 0.0)
-        A0, b0, tau, sig, solver, status, Zd = _s_procedure(Gs, mid, half, [], allow_fallback, "outer_ellipsoid")
+        A0, b0, tau, sig, solver, status, Zd = _s_procedure(Gs, mid, half, [], allow_fallback, "outer_ellipsoid",
+                                                            study_scale=True)
         if Zd is None or rounds >= max_rounds:
             break
         if rounds == 1:
