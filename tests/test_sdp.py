@@ -200,3 +200,29 @@ def test_outer_column_generation_equals_full_s_procedure(p, N, seed):
     old = sdp.outer_ellipsoid(P, strips=P.nonredundant())
     assert out.ellipsoid.log_volume() <= old.ellipsoid.log_volume() + 1e-6
     assert len(out.strips) < N
+
+
+@pytest.mark.parametrize("p,N,seed", [(2, 30, 0), (3, 60, 2), (4, 80, 3)])
+def test_min_volume_bracket_against_vertex_enumeration(p, N, seed):
+    """lower <= ln vol(minimum-volume ellipsoid of ALL vertices of P: Qhull, then the SDP of
+    enclosing_ellipsoid, a second algorithm) <= upper, with the lower end from LP support points
+    only (vertices=False); it is close to the exact optimum (within 0.05 per axis), and with
+    vertices=True it equals it (to 1e-6)."""
+    P = random_polytope(seed, p, N)
+    exact = sdp.enclosing_ellipsoid(P.vertices()).ellipsoid.log_volume()
+    br = sdp.min_volume_bracket(P, vertices=False)
+    assert br.lower <= exact + 1e-6 and exact <= br.upper + 1e-6
+    assert (exact - br.lower) / p < 0.05
+    assert br.gap_per_axis >= -1e-9
+    full = sdp.min_volume_bracket(P)
+    assert full.lower == pytest.approx(exact, abs=1e-6)
+
+
+@pytest.mark.slow
+def test_min_volume_bracket_p14():
+    """p = 14: the bracket is ordered and its lower ellipsoid contains the LP-bound vertices."""
+    P = random_polytope(6, 14, 300)
+    br = sdp.min_volume_bracket(P)
+    assert br.lower <= br.upper
+    assert np.all(br.points_ellipsoid.contains(P.bounds().vertices(), rtol=1e-6))
+    assert br.points_gap <= 1e-6 * 14

@@ -631,6 +631,26 @@ class Polytope:
         self._found.append(x)
         return off + nrm * float(u @ z), x
 
+    def support_points(self, directions) -> tuple[np.ndarray, np.ndarray]:
+        """(max over P of d^T theta, a maximising vertex) for each row d of ``directions`` (m, p):
+        values (m,), points (m, p). Batched: one LP per distinct optimal basis, every other
+        direction in that basis's normal cone answered by the same vertex (no LP)."""
+        D = np.atleast_2d(as_float_array(directions, "directions"))
+        if D.ndim != 2 or D.shape[1] != self.dim or not np.all(np.isfinite(D)):
+            raise InputError(f"directions must be a finite (m, {self.dim}) array, got shape {D.shape}.")
+        if np.any(~np.any(D != 0, axis=1)):
+            raise InputError("directions must not contain a zero row.")
+        F = self._theta_frame()
+        Dz = D * F.scale
+        nrm = np.linalg.norm(Dz, axis=1)
+        try:
+            vals, V, which = self._engine.supports(Dz / nrm[:, None])
+        except LPStatusError as exc:
+            raise self._status_error(exc.status) from None
+        X = F.to_theta(V)
+        self._found.extend(X)
+        return D @ F.origin + nrm * vals, X[which]
+
     def support(self, direction) -> float:
         """max over P of d^T theta (one LP)."""
         return self.support_point(direction)[0]

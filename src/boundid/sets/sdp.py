@@ -1,10 +1,11 @@
 """Exact and certified ellipsoids of polytopes and point sets by SDP (cvxpy + Clarabel).
 
 REFERENCES §3: maximum-volume inscribed ellipsoid, S-procedure outer ellipsoid on tightened
-strips, John's factor-n enlargement, minimum-volume ellipsoid around points, and the exact
-one-step ellipsoid of E ∩ strip. Every SDP is solved in scaled coordinates (centred at the LP
-bounding-box centre and divided by its half-widths, or the unit-ball coordinates of E): unscaled,
-Clarabel failed on ~1000 strips.
+strips (column generation), John's factor-n enlargement, minimum-volume ellipsoid around points,
+the bracket [lower, upper] of the minimum-volume ellipsoid containing P, and the exact one-step
+ellipsoid of E ∩ strip. Every SDP is solved in scaled coordinates (the box frame of P, where P
+spans [-1, 1] along every axis, see :mod:`boundid.sets.polytope`, or the unit-ball coordinates
+of E): unscaled, Clarabel failed on ~1000 strips.
 
 Every function returns an :class:`SDPResult` (the ellipsoid plus solver status, wall time,
 the strips of P used). The result is verified before it is returned: inner ellipsoids are shrunk
@@ -25,6 +26,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from boundid._validation import as_float_array, as_matrix, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
+from boundid.sets._mvee import mvee_dual
 from boundid.sets.ellipsoid import Ellipsoid
 from boundid.sets.polytope import LP_TOL, MAX_VERTEX_DIM, Polytope
 
@@ -95,15 +97,6 @@ def _frame(P: Polytope):
     return origin, scale, (b.lo - origin) / scale, (b.hi - origin) / scale, b
 
 
-def _box_frame(P: Polytope):
-    """LP bounding box of P: centre, half-widths (all > 0) and the LP bounds."""
-    b = P.bounds()
-    if np.any(b.half_width <= 0):
-        raise InputError(f"P is flat along parameters {np.flatnonzero(b.half_width <= 0)} (zero width): "
-                         "its ellipsoids are degenerate. Drop or fix those parameters first.")
-    return b.center, b.half_width, b
-
-
 def _halfspaces_z(P: Polytope, origin, scale):
     """Every side of every strip and halfspace of P as g^T z <= h in the frame theta = origin +
     scale z, unit-norm g; also the strip index owning each side (-1 for a halfspace)."""
@@ -121,7 +114,7 @@ def _halfspaces_z(P: Polytope, origin, scale):
     return np.vstack(Gs), np.concatenate(hs), np.concatenate(owner)
 
 
-def _known_vertices(P: Polytope, b=None) -> np.ndarray:
+def _known_vertices(P: Polytope) -> np.ndarray:
     """Points of P to verify outer ellipsoids on: every vertex for p <= 6; always the LP-bound
     vertices and every vertex any LP on P has produced (supports, tightening)."""
     V = np.vstack([P.bounds().vertices(), P.found_points()])
@@ -405,6 +398,87 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
                       "rounds": rounds, "strips_tightened": int(np.sum(~np.isnan(exact_lo))),
                       "support_lps": n_lp, "max_reduced_cost": max_rc, "price_tol": price_tol,
                       "pool": int(pool.size)})
+
+
+@dataclass(frozen=True)
+class VolumeBracket:
+    """ln vol of the minimum-volume ellipsoid containing P, bracketed (issue 16 item 6).
+
+    lower : a lower bound on ln vol of every ellipsoid containing P: the dual bound of the
+        minimum-volume ellipsoid around points of P (:func:`boundid.sets._mvee.mvee_dual`); any ellipsoid
+        containing P contains those points, so none is smaller.
+    upper : ln vol of the S-procedure outer ellipsoid (it contains P).
+    points_ellipsoid : an ellipsoid around the points, within ``points_gap`` (ln vol) of their
+        minimum-volume one (it need not contain P).
+    upper_result : the SDPResult of the S-procedure ellipsoid.
+    n_points : points of P used (LP-bound vertices, support points, vertices for p <= 6).
+    info : rounds, iterations, time_s.
+    """
+
+    lower: float
+    upper: float
+    points_ellipsoid: Ellipsoid
+    points_gap: float
+    upper_result: SDPResult
+    n_points: int
+    info: dict = field(default_factory=dict)
+
+    @property
+    def gap_per_axis(self) -> float:
+        """(upper - lower) / p: how far the S-procedure may be above the optimum, per axis."""
+        return (self.upper - self.lower) / self.points_ellipsoid.dim
+
+
+def min_volume_bracket(P: Polytope, n_directions: int | None = None, rounds: int = 10, seed: int = 0,
+                       vertices: bool = True, allow_fallback: bool = False) -> VolumeBracket:
+    """Bracket ln vol of the minimum-volume ellipsoid containing P: [lower, upper].
+
+    upper: :func:`outer_ellipsoid`. lower: the dual bound of the minimum-volume ellipsoid around
+    points of P found by LP (:func:`boundid.sets._mvee.mvee_dual`): the LP-bound vertices, every point the LPs on
+    P have produced, and the supports of P along ``n_directions`` (default 20 p) random
+    directions of the box frame (seeded: same seed, same numbers) and the principal axes of the
+    upper ellipsoid. Then up to ``rounds`` refinements: along the outward normal of the points'
+    ellipsoid at each point on (or near) its boundary, the farthest point of P is added if it
+    lies outside (an active-set search for the points that matter), until none does. The lower
+    bound is valid after any number of rounds. ``vertices``: for p <= 6 also every vertex of P
+    (Qhull), which makes the lower end the exact optimum (to the stopping tolerance 1e-7 per axis).
+    """
+    t0 = time.perf_counter()
+    upper = outer_ellipsoid(P, allow_fallback=allow_fallback)
+    origin, scale, _, _, b = _frame(P)
+    n = P.dim
+    n_directions = 20 * n if n_directions is None else int(n_directions)
+    rng = np.random.default_rng(seed)
+    axes = np.linalg.eigh((upper.ellipsoid.shape / scale[:, None]) / scale[None, :])[1].T
+    _, X = P.support_points(np.vstack([rng.normal(size=(n_directions, n)), axes, -axes]) / scale)
+    pts = np.vstack([b.vertices(), P.found_points(), X])
+    if vertices and n <= MAX_VERTEX_DIM:
+        pts = np.vstack([pts, P.vertices()])
+    Z = np.unique((pts - origin) / scale, axis=0)
+    iters = rnd = 0
+    u = None
+    for rnd in range(rounds + 1):
+        lower, up_pts, c, S, it, u = mvee_dual(Z, u0=u)
+        iters += it
+        if rnd == rounds:
+            break
+        # outward normals of the points' ellipsoid at the points near its boundary
+        Si = np.linalg.inv(S)
+        Zc = Z - c
+        near = np.einsum("ij,jk,ik->i", Zc, Si, Zc) >= 1 - 1e-3
+        _, Xn = P.support_points((Zc[near] @ Si) / scale)
+        Zn = (Xn - origin) / scale
+        Znc = Zn - c
+        out = Zn[np.einsum("ij,jk,ik->i", Znc, Si, Znc) > 1 + 1e-9]
+        if out.size == 0:
+            break
+        # warm start: the new points join with a small weight (all weights stay positive)
+        Z = np.vstack([Z, np.unique(out, axis=0)])
+        u = np.concatenate([u, np.full(len(Z) - len(u), 1e-3 / len(Z))])
+    shift = float(np.sum(np.log(scale)))
+    ell = Ellipsoid(origin + scale * c, (scale[:, None] * S) * scale[None, :])
+    return VolumeBracket(lower + shift, float(upper.ellipsoid.log_volume()), ell, up_pts - lower, upper, len(Z),
+                         {"rounds": rnd, "iterations": iters, "time_s": time.perf_counter() - t0})
 
 
 def john_outer(P: Polytope, allow_fallback: bool = False) -> SDPResult:
