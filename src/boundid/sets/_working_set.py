@@ -313,7 +313,7 @@ class WorkingSetLP:
             for _ in range(self.max_rounds):
                 for i in pending:
                     X[i] = self._solve(costs[i])
-                worst = self.violators(X[pending].T, batch=max(4, self.batch // max(1, pending.size // 4)))
+                worst = self.violators(X[pending].T, batch=max(16, self.batch // max(1, pending.size // 4)))
                 still = []
                 for i, w in zip(pending, worst, strict=True):
                     for b, rows in w:

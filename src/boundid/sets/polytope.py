@@ -13,9 +13,12 @@ the parameters or of y:
 * first frame: ``scale_j`` = 1 / RMS_k(w_kj / e_k) (column equilibration; capped by the prior
   box's half-width), ``origin`` = a least-squares fit on a sample of rows (so that the strips
   pass near z = 0 even when e_k is 1e-9 of |y_k|);
-* after the bounds: the LP bounding box itself, origin = its centre and scale = its half-widths,
-  so that P spans [-1, 1] along every z_j (the bounds are re-solved there when the first frame
-  was off by more than 10x in some direction).
+* during and after the bounds: the LP bounding box itself, origin = its centre and scale = its
+  half-widths, so that P spans [-1, 1] along every z_j. bounds() runs in stages on strided
+  samples of the rows (N / 16^k); after each stage it moves to the frame of that stage's
+  bounding box (which contains P's) and drops the strips that contain the box (no later optimum
+  can violate them: the box-screen of issue 19); the last stage is re-solved once more in the
+  final box frame when it was off by more than 10x in some direction.
 
 In z, strip k is {z : |r_k - (w_k * scale)^T z| <= e_k} with r_k = y_k - w_k^T origin; each row
 is divided by n_k = |w_k * scale|, so the LP rows have unit norm, the strip's half-width is

@@ -141,8 +141,9 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     origin, scale, zlo, zhi, b = _frame(P)
     n = P.dim
     G, h, owner = _halfspaces_z(P, origin, scale)
-    # seed: sides active at the 2p LP optima (they certify the bounding box) + the box itself
-    Vz = (b.vertices() - origin) / scale
+    # seed: sides active at the points of P the LPs found (the 2p LP optima certify the bounding
+    # box; the supports of outer_ellipsoid, when it ran first, outline P) + the box itself
+    Vz = (np.vstack([b.vertices(), P.found_points()]) - origin) / scale
     act = np.flatnonzero(np.any(Vz @ G.T >= h - 1e-7 * (1 + np.abs(h)), axis=0))
     Gb, hbox = np.vstack([np.eye(n), -np.eye(n)]), np.concatenate([zhi, -zlo])
     ws = np.zeros(len(h), dtype=bool)
@@ -260,7 +261,7 @@ def _reduced_costs(Zd, G, lo, hi):
 
 
 def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, price_tol: float = 1e-6,
-                    batch: int = 32, max_rounds: int = 30) -> SDPResult:
+                    batch: int = 64, max_rounds: int = 30) -> SDPResult:
     """An ellipsoid guaranteed to contain P: the S-procedure on the strips of P each tightened to
     the exact extent of P along its normal, plus the LP bounding box and the halfspace priors
     tightened likewise (REFERENCES §3); every such slab contains P, so any subset of them gives
