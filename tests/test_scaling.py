@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog
 
-from boundid.errors import InfeasibleDataError
+from boundid.errors import InfeasibleDataError, SolverError
 from boundid.sets import Polytope, sdp
 
 
@@ -141,3 +141,27 @@ def test_sdp_ellipsoids_are_scale_equivariant():
         assert es.log_volume() == pytest.approx(e0.log_volume() + shift, abs=1e-4)
         assert np.allclose(c * es.center, e0.center, atol=1e-5 * np.sqrt(np.diag(e0.shape)).max())
     assert np.all(sdp.outer_ellipsoid(Ps).ellipsoid.contains(Ps.vertices()))
+
+
+def test_solver_failures_raise_solver_error(monkeypatch):
+    """A wrong LP answer never comes back as bounds: vertices moved 1e-3 off P fail their
+    certificate (SolverError naming the strip and the remedy); an LP 'infeasible' on data whose
+    minimax point satisfies every strip is a SolverError too, not InfeasibleDataError."""
+    rng = np.random.default_rng(3)
+    W = rng.normal(size=(50, 3))
+    y = W @ np.ones(3) + rng.uniform(-0.5, 0.5, 50)
+    real = Polytope._minimize_many
+
+    def shifted(self, costs, levels=()):
+        return real(self, costs, levels) + 1e-3
+
+    monkeypatch.setattr(Polytope, "_minimize_many", shifted)
+    with pytest.raises(SolverError, match="certificate"):
+        Polytope(W, y, 0.5).bounds()
+
+    def infeasible(self, costs, levels=()):
+        raise self._status_error("infeasible")
+
+    monkeypatch.setattr(Polytope, "_minimize_many", infeasible)
+    with pytest.raises(SolverError, match="numerical failure"):
+        Polytope(W, y, 0.5).bounds()
