@@ -23,10 +23,12 @@ normal cone (the cone spanned by the outward normals of the constraints active i
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import highspy
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
 from boundid.errors import SolverError
 
@@ -38,6 +40,20 @@ _AT_UPPER = highspy.HighsBasisStatus.kUpper
 CHUNK = 1 << 15
 #: a direction d is in the normal cone of a basis when its multipliers are >= -_CONE_TOL |d|
 _CONE_TOL = 1e-10
+_BLAS = ThreadpoolController()
+
+
+def one_blas_thread(f):
+    """Run ``f`` with BLAS limited to one thread. The LP loop alternates HiGHS with many small
+    BLAS calls; idle OpenBLAS threads spin between them and take the core HiGHS needs (measured
+    here: LP bounds 2x faster at N = 1e5 and 1e6 with one BLAS thread, and no slower at 1e7)."""
+
+    @functools.wraps(f)
+    def run(*args, **kwargs):
+        with _BLAS.limit(limits=1, user_api="blas"):
+            return f(*args, **kwargs)
+
+    return run
 
 
 @dataclass
@@ -295,6 +311,7 @@ class WorkingSetLP:
                               "this case (the data, or W, y, e_max) so the scaling can be improved.")
         return np.array(h.getSolution().col_value)
 
+    @one_blas_thread
     def minimize_many(self, costs: np.ndarray, levels: tuple[int, ...] = ()) -> np.ndarray:
         """argmin of cost^T x over the full pool for each row of ``costs`` (k, n_cols) -> (k, n_cols).
 
@@ -313,7 +330,7 @@ class WorkingSetLP:
             for _ in range(self.max_rounds):
                 for i in pending:
                     X[i] = self._solve(costs[i])
-                worst = self.violators(X[pending].T, batch=max(16, self.batch // max(1, pending.size // 4)))
+                worst = self.violators(X[pending].T, batch=max(8, self.batch // max(1, pending.size // 4)))
                 still = []
                 for i, w in zip(pending, worst, strict=True):
                     for b, rows in w:
@@ -358,6 +375,7 @@ class WorkingSetLP:
         N = np.vstack([np.array(N).reshape(-1, self.n_cols), self._ws_coef[up], -self._ws_coef[lo]])
         return N if N.shape[0] == self.n_cols else None
 
+    @one_blas_thread
     def supports(self, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """max over the pool's polytope of d^T x for each row d of ``dirs`` (k, n_cols).
 

@@ -18,7 +18,8 @@ the parameters or of y:
   samples of the rows (N / 16^k); after each stage it moves to the frame of that stage's
   bounding box (which contains P's) and drops the strips that contain the box (no later optimum
   can violate them: the box-screen of issue 19); the last stage is re-solved once more in the
-  final box frame when it was off by more than 10x in some direction.
+  final box frame when that frame was off by more than 10x in some direction and the vertices
+  fail their certificate (see Bounds) where they were solved.
 
 In z, strip k is {z : |r_k - (w_k * scale)^T z| <= e_k} with r_k = y_k - w_k^T origin; each row
 is divided by n_k = |w_k * scale|, so the LP rows have unit norm, the strip's half-width is
@@ -545,7 +546,7 @@ class Polytope:
             lo_ok, hi_ok = _FRAME_OK
             off = np.any(hw < lo_ok) or np.any(hw > hi_ok) or np.any(np.abs(cz) > hi_ok * np.maximum(hw, 1.0))
             count()
-            if stage is None and off and not resolved:
+            if stage is None and off and not self._certified(F.to_theta(Z), F.scale * hw, rows):
                 self._set_frame(box_frame, reach)      # re-solve where P spans [-1, 1]
                 Z = self._minimize_many(costs)
                 F = self._frame
@@ -570,6 +571,14 @@ class Polytope:
         info = {**stats, "time_s": time.perf_counter() - t0, "resolved_in_box_frame": resolved}
         self._bounds = Bounds(lo, hi, amin, amax, info, point, ratio, excess)
         return self._bounds
+
+    def _certified(self, X: np.ndarray, half_width: np.ndarray, rows: np.ndarray | None) -> bool:
+        """Whether the points X pass the vertex certificate of Bounds (see _vertex_excess)."""
+        try:
+            self._vertex_excess(X, half_width, rows)
+        except SolverError:
+            return False
+        return True
 
     def _vertex_excess(self, X: np.ndarray, half_width: np.ndarray, rows: np.ndarray | None = None) -> float:
         """max over points X (m, p) and constraints of violation / stated tolerance (see Bounds);
