@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import hashlib
+import os
+import resource
 import time
+from pathlib import Path
 
 import cvxpy as cp
 import numpy as np
@@ -10,6 +14,12 @@ import pandas as pd
 from scipy.optimize import linprog
 
 from boundid.sets import Polytope, log_unit_ball_volume, sdp
+from boundid.sets._working_set import WorkingSetLP
+from boundid.sets.polytope import _TOUCH_TOL, LP_TOL
+
+#: where the study-scale regressions are cached (git-ignored; BOUNDID_CACHE overrides)
+CACHE = Path(os.environ.get("BOUNDID_CACHE", ".cache/boundid"))
+STUDIES = ("studies/h4_obe.toml", "studies/direct_drive_rls.toml")
 
 GOALS = """
 Goals (issue 2):
@@ -25,6 +35,18 @@ Goals (issue 2):
   cvxpy problem with every strip (no constraint generation); the S-procedure on all raw strips
   (no tightening, no redundancy removal). `ratio` = reference time / our time; `log_vol_per_axis`
   = ln vol / p (the outer ellipsoids differ in size: smaller is better).
+
+Goals (issue 19):
+
+* Study scale: the exact stage (LP bounds + SDP outer + inner + John) of each study <= 5 s, on
+  the study's own regression (built by the study machinery, cached under .cache/boundid).
+  The outer ellipsoid is the S-procedure by column generation over every tightened strip; its
+  reference in the same run is the previous method (one LP per candidate side for redundancy
+  removal, 2 LPs per non-redundant strip for tightening, then one S-procedure on all of them):
+  `ratio` = reference time / our time; `log_vol_per_axis` of both (ours may only be smaller).
+* LP bounds at recording scale (p = 14): N = 1e6 <= 1 s and N = 1e7 <= 8 s within 4 GB.
+  `detail` gives the process's peak resident memory after the case and the strips left by the
+  box screen. Every row records the 1-minute load average when it ran (the machine has 2 cores).
 """
 
 
@@ -140,13 +162,142 @@ def _sdp_rows(sizes, p, rng):
     return rows
 
 
+def _load() -> float:
+    return round(os.getloadavg()[0], 2)
+
+
+def _study_regression(path: str):
+    """(name, W, y, e_max, box, theta_true) of a study's exact-stage regression, built by the
+    study machinery once and cached to CACHE/<name>.npz (rebuilt when the study file changes)."""
+    text = Path(path).read_bytes()
+    key = hashlib.sha256(text).hexdigest()[:16]
+    f = CACHE / f"{Path(path).stem}-{key}.npz"
+    if not f.exists():
+        from boundid.studies.config import load_study
+        from boundid.studies.data import acquire
+        from boundid.studies.registry import make_robot
+        from boundid.studies.runner import build_regressions, prior_box
+
+        cfg = load_study(path)
+        model = make_robot(cfg.robot, cfg.robot_options)
+        data = acquire(cfg, model, np.random.default_rng(cfg.seed))
+        reg = build_regressions(model, data.recording, cfg.preprocessing, cfg.regressions)[cfg.exact.regression]
+        c, h = prior_box(model, cfg.prior)
+        CACHE.mkdir(parents=True, exist_ok=True)
+        np.savez(f, W=reg.W, y=reg.y, e_max=cfg.exact.e_max, lo=c - h, hi=c + h)
+    d = np.load(f)
+    return Path(path).stem, d["W"], d["y"], float(d["e_max"]), (d["lo"], d["hi"])
+
+
+def _previous_outer(P: Polytope):
+    """The previous outer-ellipsoid method, kept here as the reference: non-redundant strips by
+    one LP per side the LP box reaches (side relaxed, sequential elimination), each tightened by
+    2 LPs, then one S-procedure on all of them with the LP box. Returns (ln vol, strips)."""
+    b = P.bounds()
+    origin, scale = P.box_frame()
+    blk = P._strip_block(P._frame)
+    up_s, lo_s = blk.up.copy(), blk.lo.copy()
+    G = P.W * scale / P._frame.n[:, None]
+    reach = np.abs(G).sum(axis=1)
+    up_c, lo_c = reach > up_s - _TOUCH_TOL * (1 + np.abs(up_s)), -reach < lo_s + _TOUCH_TOL * (1 + np.abs(lo_s))
+    eng = WorkingSetLP([blk], *P._col_bounds(P._frame), seed=[(0, P._engine.ws_rows(0))], tol=LP_TOL)
+    blk.up[~up_c], blk.lo[~lo_c] = np.inf, -np.inf
+    for k in np.flatnonzero(~up_c | ~lo_c):
+        if eng.row_of[0][k] >= 0:
+            eng.set_bounds(0, k, blk.lo[k], blk.up[k])
+    keep = np.zeros(P.n_strips, dtype=bool)
+    for k in np.flatnonzero(up_c | lo_c):
+        for side, cand, bound in ((1.0, up_c[k], up_s[k]), (-1.0, lo_c[k], lo_s[k])):
+            if not cand:
+                continue
+            eng.set_bounds(0, k, blk.lo[k], bound + 1.0) if side > 0 else eng.set_bounds(0, k, bound - 1.0, blk.up[k])
+            v = side * float(G[k] @ eng.minimize(-side * G[k])[0])
+            if v > side * bound + _TOUCH_TOL * (1 + abs(bound)):
+                keep[k] = True
+                eng.set_bounds(0, k, blk.lo[k], up_s[k]) if side > 0 else eng.set_bounds(0, k, lo_s[k], blk.up[k])
+            else:
+                eng.set_bounds(0, k, blk.lo[k], np.inf) if side > 0 else eng.set_bounds(0, k, -np.inf, blk.up[k])
+    nr = np.flatnonzero(keep)
+    full = P._engine
+    lo = np.array([float(G[k] @ full.minimize(G[k])[0]) for k in nr]) - LP_TOL
+    hi = np.array([float(G[k] @ full.minimize(-G[k])[0]) for k in nr]) + LP_TOL
+    zlo, zhi = (b.lo - origin) / scale, (b.hi - origin) / scale
+    Gs = np.vstack([np.eye(P.dim), G[nr]])
+    lo, hi = np.concatenate([zlo, lo]), np.concatenate([zhi, hi])
+    A0, *_ = sdp._s_procedure(Gs, 0.5 * (lo + hi), 0.5 * (hi - lo), [], False, "previous outer")
+    return log_unit_ball_volume(P.dim) - 0.5 * np.linalg.slogdet(A0)[1] + np.sum(np.log(scale)), nr
+
+
+def _study_rows(paths, reference: bool):
+    rows = []
+    for path in paths:
+        name, W, y, e, box = _study_regression(path)
+        P = Polytope.from_strips(W, y, e, box=box)
+        p = P.dim
+        t = {}
+        for what, f in (("LP bounds", Polytope.bounds), ("SDP outer", sdp.outer_ellipsoid),
+                        ("SDP inner", sdp.inner_ellipsoid), ("SDP John", sdp.john_outer)):
+            t0 = time.perf_counter()
+            out = f(P)
+            t[what] = (time.perf_counter() - t0, out)
+        total = sum(v[0] for v in t.values())
+        outer = t["SDP outer"][1]
+        ref_t, ref_lv, detail = np.nan, np.nan, ""
+        if reference:
+            Q = Polytope.from_strips(W, y, e, box=box)
+            Q.bounds()
+            t0 = time.perf_counter()
+            ref_lv, nr = _previous_outer(Q)
+            ref_t = time.perf_counter() - t0
+            detail = f"previous method: {len(nr)} non-redundant strips, ln vol / p = {ref_lv / p:.6f}; "
+        rows.append({"case": f"study {name} exact stage (N={P.n_strips}, p={p})",
+                     "method": "LP bounds + SDP outer + inner + John", "time_s": total,
+                     "reference": "", "ref_time_s": np.nan, "ratio": np.nan, "max_dev": np.nan,
+                     "goal": "<= 5 s", "log_vol_per_axis": np.nan, "load_avg": _load(),
+                     "detail": ", ".join(f"{k} {v[0]:.2f} s" for k, v in t.items())})
+        rows.append({"case": f"study {name} SDP outer (N={P.n_strips}, p={p})",
+                     "method": "S-procedure, column generation over every tightened strip",
+                     "time_s": t["SDP outer"][0], "reference": "previous: every non-redundant strip, 1 LP/side",
+                     "ref_time_s": ref_t, "ratio": ref_t / t["SDP outer"][0], "max_dev": np.nan, "goal": "",
+                     "log_vol_per_axis": outer.ellipsoid.log_volume() / p, "load_avg": _load(),
+                     "detail": detail + f"ours: {outer.info['rounds']} SDP rounds, {len(outer.strips)} strips in "
+                               f"the SDP, {outer.info['strips_tightened']} tightened, {outer.info['support_lps']} "
+                               f"support LPs, max reduced cost {outer.info['max_reduced_cost']:.2g}"})
+    return rows
+
+
+def _large_rows(sizes, p, rng):
+    rows = []
+    for N in sizes:
+        W, y, e = _problem(rng, p, N)
+        t0 = time.perf_counter()
+        b = Polytope.from_strips(W, y, e).bounds()
+        dt = time.perf_counter() - t0
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+        rows.append({"case": f"bounds p={p} N={N:.0e}", "method": "staged constraint generation (highspy)",
+                     "time_s": dt, "reference": "", "ref_time_s": np.nan, "ratio": np.nan, "max_dev": np.nan,
+                     "goal": "<= 1 s" if N <= 1_000_000 else "<= 8 s, <= 4 GB", "log_vol_per_axis": np.nan,
+                     "load_avg": _load(),
+                     "detail": f"peak RSS {peak:.2f} GiB (W alone {W.nbytes / 2**30:.2f} GiB); {b.info['passes']} "
+                               f"passes, {b.info['lp_solves']} LP solves, {b.info['strips_reaching_box']} strips "
+                               "reach the final box"})
+        del W, y, e
+    return rows
+
+
 def run(quick: bool = False) -> pd.DataFrame:
     """Bounds for N = 1e3, 1e4, 1e5 (quick: 300, 3000) and SDP ellipsoids for m = 50, 200, 1000
     (quick: 50), p = 14, the references in the same run (cvxpy only up to N = 1e4: at N = 1e5 its
-    28 solves took 380 s on the 2-core machine, against 160 s for linprog and 0.63 s for ours)."""
+    28 solves took 380 s on the 2-core machine, against 160 s for linprog and 0.63 s for ours);
+    then the two studies' exact stages (quick: without the previous-method reference) and LP
+    bounds at N = 1e6, 1e7 (quick: 1e5)."""
     rng = np.random.default_rng(2024)
     p = 14
     sizes = (300, 3000) if quick else (1_000, 10_000, 100_000)
     rows = _bounds_rows(sizes, p, rng, cvxpy_max_n=10_000)
     rows += _sdp_rows((50,) if quick else (50, 200, 1000), p, rng)
+    rows += _study_rows(STUDIES, reference=not quick)
+    rows += _large_rows((100_000,) if quick else (1_000_000, 10_000_000), p, rng)
+    for r in rows:
+        r.setdefault("load_avg", _load())
     return pd.DataFrame(rows)

@@ -1,54 +1,144 @@
-"""Constraint generation for LPs with many rows (HiGHS dual simplex, warm-started).
+"""Constraint generation for LPs with many rows (HiGHS simplex, warm-started).
 
-A large LP  min c^T x  s.t.  lo_i <= a_i^T x + g_i s <= up_i  (i in a pool of up to ~1e6 rows)
-is solved on a small working set of rows; after each solve one matrix-vector pass over the
-whole pool finds the most violated rows, which are added, and HiGHS re-solves from its last
-basis (a row added to an optimal basis keeps it dual feasible, so the dual simplex needs few
-iterations). It stops when no pool row is violated: the working-set optimum is then feasible
-for the full LP and optimal for it (the working set is a relaxation). Changing the objective
-keeps the basis too (primal simplex), so the 2p objectives of a bounding box share the work.
+A large LP  min c^T x  s.t.  lo_i <= a_i^T x + g_i t <= up_i  (i in a pool of up to ~1e7 rows)
+is solved on a small working set of rows; after each solve one pass over the whole pool finds
+the most violated rows, which are added, and HiGHS re-solves from its last basis (a row added
+to an optimal basis keeps it dual feasible, so the dual simplex needs few iterations). A point
+that violates no pool row is optimal for the full LP (the working set is a relaxation).
 
-The pool is a list of blocks that may share one matrix: block b holds rows ``A_b`` (m_b, p) on
-the first p columns, an optional coefficient vector ``g_b`` (m_b,) on one extra column (the
-Chebyshev radius or the consistency level), and row bounds ``lo_b``, ``up_b`` (+-inf allowed).
+Three things keep the passes few at N = 1e7:
+
+* several objectives are solved on the working set before one pass checks all their optima
+  together (a matrix product over the pool instead of one matrix-vector product per objective);
+* the first solves see a strided sample of the pool (``levels``), so most rows of the final
+  working set are found on cheap passes (the sampling LP of Clarkson 1995, deterministic here);
+* the pool is read in slices of ``CHUNK`` rows, never copied: a block holds the caller's raw
+  rows ``A`` with a column scale ``d`` and a row scale ``s``, and row i acts on the LP
+  variables as (A_i * d) / s_i (the well-scaled coordinates of :mod:`boundid.sets.polytope`).
+
+:meth:`WorkingSetLP.supports` solves many objectives over the same polytope with as few LPs as
+possible: the optimal basis of one LP proves the same vertex optimal for every direction in its
+normal cone (the cone spanned by the outward normals of the constraints active in the basis).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import functools
+from dataclasses import dataclass, field
 
 import highspy
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
 from boundid.errors import SolverError
 
 _INF = highspy.kHighsInf
 _STATUS = highspy.HighsModelStatus
+_AT_LOWER = highspy.HighsBasisStatus.kLower
+_AT_UPPER = highspy.HighsBasisStatus.kUpper
+#: rows per slice of a pass over the pool (bounds the temporaries at N = 1e7)
+CHUNK = 1 << 15
+#: a direction d is in the normal cone of a basis when its multipliers are >= -_CONE_TOL |d|
+_CONE_TOL = 1e-10
+_BLAS = ThreadpoolController()
+
+
+def one_blas_thread(f):
+    """Run ``f`` with BLAS limited to one thread. The LP loop alternates HiGHS with many small
+    BLAS calls; idle OpenBLAS threads spin between them and take the core HiGHS needs (measured
+    here: LP bounds 2x faster at N = 1e5 and 1e6 with one BLAS thread, and no slower at 1e7)."""
+
+    @functools.wraps(f)
+    def run(*args, **kwargs):
+        with _BLAS.limit(limits=1, user_api="blas"):
+            return f(*args, **kwargs)
+
+    return run
 
 
 @dataclass
 class Block:
-    """Rows lo <= A x[:p] + g x[p] <= up of the pool (``g`` None: no extra column)."""
+    """Pool rows lo <= (A_i * d) x[:p] / s_i + g_i x[p] <= up_i.
+
+    A : (m, p) raw rows, referenced, not copied (``d`` None: no column scale, ``s`` None: 1).
+    lo, up : (m,) bounds in the scaled row's units (+-inf allowed).
+    g : (m,) coefficients of the extra column, already divided by s (None: no extra column).
+    """
 
     A: np.ndarray
     lo: np.ndarray
     up: np.ndarray
     g: np.ndarray | None = None
+    d: np.ndarray | None = None
+    s: np.ndarray | None = None
+    _kind: str | None = field(default=None, repr=False)
+    _mid: np.ndarray | None = field(default=None, repr=False)
+    _half: np.ndarray | None = field(default=None, repr=False)
 
-    def activity(self, x: np.ndarray) -> np.ndarray:
-        r = self.A @ x[: self.A.shape[1]]
+    @property
+    def m(self) -> int:
+        return self.A.shape[0]
+
+    def violation(self, sl, X: np.ndarray) -> np.ndarray:
+        """Distance of each row ``sl`` outside [lo, up] at the columns of X (negative inside),
+        computed in place: |act - mid| - half for two-sided rows, act - up or lo - act otherwise."""
+        V = self.activity(sl, X)
+        if self._kind is None:
+            lo_fin, up_fin = np.isfinite(self.lo), np.isfinite(self.up)
+            self._kind = "two" if lo_fin.all() and up_fin.all() else "up" if not lo_fin.any() else \
+                "lo" if not up_fin.any() else "mixed"
+            if self._kind == "two":
+                self._mid, self._half = 0.5 * (self.lo + self.up), 0.5 * (self.up - self.lo)
+        if self._kind == "two":
+            V -= self._mid[sl, None]
+            np.abs(V, out=V)
+            V -= self._half[sl, None]
+        elif self._kind == "up":
+            V -= self.up[sl, None]
+        elif self._kind == "lo":
+            np.subtract(self.lo[sl, None], V, out=V)
+        else:
+            V = np.maximum(self.lo[sl, None] - V, V - self.up[sl, None])
+        return V
+
+    def rows(self, idx: np.ndarray) -> np.ndarray:
+        """The effective coefficient rows of pool rows ``idx``, (len(idx), p [+ 1])."""
+        R = self.A[idx]
+        if self.d is not None:
+            R = R * self.d
+        if self.s is not None:
+            R = R / self.s[idx, None]
         if self.g is not None:
-            r = r + self.g * x[self.A.shape[1]]
-        return r
+            R = np.hstack([R, self.g[idx, None]])
+        return R
 
-    def violation(self, x: np.ndarray) -> np.ndarray:
-        """max(lo - a^T x, a^T x - up), less a rounding allowance of 1e-13 |bound|."""
-        r = self.activity(x)
-        with np.errstate(invalid="ignore"):
-            v_lo = self.lo - r - 1e-13 * np.abs(self.lo)
-            v_up = r - self.up - 1e-13 * np.abs(self.up)
-        return np.fmax(np.nan_to_num(v_lo, nan=-np.inf, neginf=-np.inf),
-                       np.nan_to_num(v_up, nan=-np.inf, neginf=-np.inf))
+    def activity(self, sl, X: np.ndarray) -> np.ndarray:
+        """Row activities of rows ``sl`` (a slice or index array) at the columns of X (n_cols, k)."""
+        p = self.A.shape[1]
+        Z = X[:p] if self.d is None else self.d[:, None] * X[:p]
+        R = self.A[sl] @ Z
+        if self.s is not None:
+            R /= self.s[sl, None]
+        if self.g is not None:
+            R += self.g[sl, None] * X[p][None, :]
+        return R
+
+
+def sample_levels(m: int, smallest: int = 10_000, ratio: int = 16) -> tuple[int, ...]:
+    """Sample sizes m / ratio^k (k >= 1) down to ``smallest``, ascending: the stages of a
+    constraint generation over m rows (each stage's working set seeds the next)."""
+    sizes = []
+    n = m // ratio
+    while n >= smallest:
+        sizes.append(n)
+        n //= ratio
+    return tuple(sizes[::-1])
+
+
+def strided_sample(m: int, n: int) -> np.ndarray:
+    """About n of the indices 0..m-1, evenly strided (deterministic; rows of a recording are in
+    time order, so a stride sees the whole experiment)."""
+    return np.arange(0, m, max(1, -(-m // n)), dtype=np.int64)
 
 
 class LPStatusError(Exception):
@@ -72,46 +162,57 @@ class WorkingSetLP:
         Rows put in the working set before the first solve (they must make it bounded for
         the objectives asked, or the solve reports "unbounded").
     tol : float
-        Violation (in the row's units; strips are normalised to half-width 1) below which a pool
-        row counts as satisfied.
+        Violation (in the scaled row's units) below which a pool row counts as satisfied.
     batch : int
-        At most this many of the most violated rows are added per round.
+        At most this many of the most violated rows are added per objective and round.
     """
 
     def __init__(self, blocks, col_lo, col_hi, seed=(), tol: float = 1e-9, batch: int = 32,
                  max_rounds: int = 10_000):
         self.blocks = list(blocks)
         self.n_cols = len(col_lo)
+        self.col_lo = np.asarray(col_lo, dtype=float)
+        self.col_hi = np.asarray(col_hi, dtype=float)
         self.tol = tol
         self.batch = batch
         self.max_rounds = max_rounds
-        self.in_ws = [np.zeros(b.A.shape[0], dtype=bool) for b in self.blocks]
-        self.row_of = [np.full(b.A.shape[0], -1, dtype=np.int64) for b in self.blocks]
+        self.in_ws = [np.zeros(b.m, dtype=bool) for b in self.blocks]
+        self.row_of = [np.full(b.m, -1, dtype=np.int64) for b in self.blocks]
+        #: the part of each block's pool that passes look at (None: all of it); the caller may
+        #: leave out rows that no future optimum can violate (e.g. strips containing a box that
+        #: contains the working set's polytope)
+        self.active: list[np.ndarray | None] = [None] * len(self.blocks)
+        self._ws_coef = np.zeros((0, self.n_cols))      # working-set rows as added to HiGHS
+        self._ws_lo, self._ws_up = np.zeros(0), np.zeros(0)
         self.n_rows = 0
         self.n_solves = 0
+        self.n_passes = 0
         h = highspy.Highs()
         for name, val in (("output_flag", False), ("presolve", "off"), ("solver", "simplex"),
                           ("primal_feasibility_tolerance", 1e-10), ("dual_feasibility_tolerance", 1e-10),
                           ("threads", 1)):
             h.setOptionValue(name, val)
-        lo = np.where(np.isfinite(col_lo), col_lo, -_INF).astype(float)
-        hi = np.where(np.isfinite(col_hi), col_hi, _INF).astype(float)
+        lo = np.where(np.isfinite(self.col_lo), self.col_lo, -_INF)
+        hi = np.where(np.isfinite(self.col_hi), self.col_hi, _INF)
         h.addVars(self.n_cols, lo, hi)
         self.h = h
         for b, rows in seed:
             self.add_rows(b, np.asarray(rows, dtype=np.int64))
 
+    # ------------------------------------------------------------------ working set
     def add_rows(self, b: int, rows: np.ndarray) -> None:
         """Add pool rows ``rows`` of block ``b`` to the working set (duplicates skipped)."""
-        rows = np.unique(rows)
+        rows = np.asarray(rows, dtype=np.int64)
         rows = rows[~self.in_ws[b][rows]]
         if rows.size == 0:
             return
+        rows = np.sort(rows)
+        rows = rows[np.r_[True, rows[1:] != rows[:-1]]]
         blk = self.blocks[b]
-        vals = blk.A[rows]
-        if blk.g is not None:
-            vals = np.hstack([vals, blk.g[rows, None]])
-        ncol = vals.shape[1]
+        vals = blk.rows(rows)
+        if vals.shape[1] < self.n_cols:
+            vals = np.hstack([vals, np.zeros((rows.size, self.n_cols - vals.shape[1]))])
+        ncol = self.n_cols
         idx = np.tile(np.arange(ncol, dtype=np.int32), rows.size)
         starts = np.arange(rows.size, dtype=np.int32) * ncol
         lo = np.where(np.isfinite(blk.lo[rows]), blk.lo[rows], -_INF)
@@ -119,53 +220,188 @@ class WorkingSetLP:
         self.h.addRows(rows.size, lo, up, vals.size, starts, idx, vals.ravel().astype(float))
         self.in_ws[b][rows] = True
         self.row_of[b][rows] = np.arange(self.n_rows, self.n_rows + rows.size)
+        self._ws_coef = np.vstack([self._ws_coef, vals])
+        self._ws_lo = np.concatenate([self._ws_lo, blk.lo[rows]])
+        self._ws_up = np.concatenate([self._ws_up, blk.up[rows]])
         self.n_rows += rows.size
+
+    def take_basis(self, other: WorkingSetLP) -> None:
+        """Start from ``other``'s last basis: the same pool rows in the same constraint set,
+        seen in other coordinates (rescaled columns and rows, shifted bounds), so the vertex and
+        its basis carry over and the next solves start where ``other`` stopped."""
+        basis = other.h.getBasis()
+        if not basis.valid:
+            return
+        status = list(basis.row_status)
+        rows = [None] * self.n_rows
+        for b in range(len(self.blocks)):
+            ks = np.flatnonzero(self.in_ws[b] & other.in_ws[b])
+            for k in ks:
+                rows[self.row_of[b][k]] = status[other.row_of[b][k]]
+        if any(r is None for r in rows):
+            return
+        basis.row_status = rows
+        self.h.setBasis(basis)
+
+    def ws_rows(self, b: int) -> np.ndarray:
+        """Pool indices of block ``b`` in the working set."""
+        return np.flatnonzero(self.in_ws[b])
 
     def set_bounds(self, b: int, k: int, lo: float, up: float) -> None:
         """Change the bounds of pool row k of block b (and of its working-set copy)."""
         blk = self.blocks[b]
         blk.lo[k], blk.up[k] = lo, up
+        blk._kind = None
         r = self.row_of[b][k]
         if r >= 0:
+            self._ws_lo[r], self._ws_up[r] = lo, up
             self.h.changeRowBounds(int(r), lo if np.isfinite(lo) else -_INF, up if np.isfinite(up) else _INF)
 
-    def _worst(self, x: np.ndarray) -> list[tuple[int, np.ndarray]]:
-        """The ``batch`` most violated pool rows (above tol) not yet in the working set, per block
-        (rows in it are HiGHS's to satisfy, to its own tolerance)."""
-        cand = []
+    # ------------------------------------------------------------------ passes over the pool
+    def violators(self, X: np.ndarray, batch: int | None = None) -> list[list[tuple[int, np.ndarray]]]:
+        """For each column x of X (n_cols, k): the ``batch`` (default ``self.batch``) most violated
+        pool rows (violation above ``tol``) not in the working set, as a list of (block, rows);
+        one pass over the pool. Rows in the working set are HiGHS's to satisfy, to its own
+        tolerance."""
+        self.n_passes += 1
+        batch = self.batch if batch is None else batch
+        k = X.shape[1]
+        found: list[list[tuple[int, np.ndarray, np.ndarray]]] = [[] for _ in range(k)]
         for b, blk in enumerate(self.blocks):
-            v = blk.violation(x)
-            hit = np.flatnonzero((v > self.tol) & ~self.in_ws[b])
-            if hit.size:
-                cand.append((b, hit, v[hit]))
-        if not cand:
-            return []
-        allv = np.concatenate([c[2] for c in cand])
-        if allv.size > self.batch:
-            cut = np.partition(allv, allv.size - self.batch)[allv.size - self.batch]
-        else:
-            cut = -np.inf
-        return [(b, hit[vv >= cut]) for b, hit, vv in cand]
+            pool = self.active[b]
+            m = blk.m if pool is None else pool.size
+            for start in range(0, m, CHUNK):
+                stop = min(m, start + CHUNK)
+                sl = slice(start, stop) if pool is None else pool[start:stop]
+                V = blk.violation(sl, X)
+                hit = V > self.tol
+                if not hit.any():
+                    continue
+                idx = np.arange(start, stop) if pool is None else pool[start:stop]
+                hit &= ~self.in_ws[b][idx][:, None]
+                for j in np.flatnonzero(hit.any(axis=0)):
+                    sel = np.flatnonzero(hit[:, j])
+                    if sel.size > batch:
+                        sel = sel[np.argpartition(V[sel, j], -batch)[-batch:]]
+                    found[j].append((b, idx[sel], V[sel, j]))
+        out = []
+        for parts in found:
+            if not parts:
+                out.append([])
+                continue
+            vals = np.concatenate([v for _, _, v in parts])
+            cut = np.partition(vals, vals.size - batch)[vals.size - batch] if vals.size > batch else -np.inf
+            out.append([(b, rows[v >= cut]) for b, rows, v in parts])
+        return out
+
+    # ------------------------------------------------------------------ solves
+    def _solve(self, cost: np.ndarray) -> np.ndarray:
+        h = self.h
+        h.changeColsCost(self.n_cols, np.arange(self.n_cols, dtype=np.int32), np.asarray(cost, dtype=float))
+        h.run()
+        self.n_solves += 1
+        st = h.getModelStatus()
+        if st == _STATUS.kInfeasible:
+            raise LPStatusError("infeasible")
+        if st in (_STATUS.kUnbounded, _STATUS.kUnboundedOrInfeasible):
+            raise LPStatusError("unbounded" if st == _STATUS.kUnbounded else "unbounded_or_infeasible")
+        if st != _STATUS.kOptimal:
+            raise SolverError(f"HiGHS stopped with status {h.modelStatusToString(st)} on a {self.n_rows}-row "
+                              "working set of a problem already solved in well-scaled coordinates; report "
+                              "this case (the data, or W, y, e_max) so the scaling can be improved.")
+        return np.array(h.getSolution().col_value)
+
+    @one_blas_thread
+    def minimize_many(self, costs: np.ndarray, levels: tuple[int, ...] = ()) -> np.ndarray:
+        """argmin of cost^T x over the full pool for each row of ``costs`` (k, n_cols) -> (k, n_cols).
+
+        Each round solves every unfinished objective on the working set, then one pass checks
+        all their optima and adds each one's most violated rows. ``levels``: sizes of strided
+        samples of block 0 to run on first (ascending; the full pool always comes last).
+        """
+        costs = np.atleast_2d(np.asarray(costs, dtype=float))
+        X = np.empty((costs.shape[0], self.n_cols))
+        m0 = self.blocks[0].m if self.blocks else 0
+        keep = self.active[0]
+        stages = [strided_sample(m0, n) for n in levels] + [keep]
+        for stage in stages:
+            self.active[0] = stage
+            pending = np.arange(costs.shape[0])
+            for _ in range(self.max_rounds):
+                for i in pending:
+                    X[i] = self._solve(costs[i])
+                worst = self.violators(X[pending].T, batch=max(8, self.batch // max(1, pending.size // 4)))
+                still = []
+                for i, w in zip(pending, worst, strict=True):
+                    for b, rows in w:
+                        self.add_rows(b, rows)
+                    if w:
+                        still.append(i)
+                pending = np.array(still, dtype=int)
+                if pending.size == 0:
+                    break
+            else:
+                raise SolverError(f"constraint generation did not converge in {self.max_rounds} rounds.")
+        return X
 
     def minimize(self, cost: np.ndarray) -> tuple[np.ndarray, float]:
         """argmin and min of cost^T x over the full pool (cost: (n_cols,))."""
-        h = self.h
-        h.changeColsCost(self.n_cols, np.arange(self.n_cols, dtype=np.int32), np.asarray(cost, dtype=float))
-        for _ in range(self.max_rounds):
-            h.run()
-            self.n_solves += 1
-            st = h.getModelStatus()
-            if st == _STATUS.kInfeasible:
-                raise LPStatusError("infeasible")
-            if st in (_STATUS.kUnbounded, _STATUS.kUnboundedOrInfeasible):
-                raise LPStatusError("unbounded" if st == _STATUS.kUnbounded else "unbounded_or_infeasible")
-            if st != _STATUS.kOptimal:
-                raise SolverError(f"HiGHS stopped with status {h.modelStatusToString(st)} on a "
-                                  f"{self.n_rows}-row working set; the problem may be badly scaled.")
-            x = np.array(h.getSolution().col_value)
-            worst = self._worst(x)
-            if not worst:
-                return x, float(cost @ x)
-            for b, rows in worst:
-                self.add_rows(b, rows)
-        raise SolverError(f"constraint generation did not converge in {self.max_rounds} rounds.")
+        x = self.minimize_many(np.asarray(cost, dtype=float)[None, :])[0]
+        return x, float(np.asarray(cost, dtype=float) @ x)
+
+    def active_normals(self, x: np.ndarray) -> np.ndarray | None:
+        """Outward normals (rows) of the constraints active at the optimal vertex x, (n_cols,
+        n_cols): x is optimal for every direction in their cone. The active set is read from the
+        activities (fast); at a degenerate vertex (more than n_cols active) from HiGHS's basis,
+        the nonbasic constraints. None if neither gives n_cols normals."""
+        act = self._ws_coef @ x
+        tol = 1e-9 * (1.0 + np.abs(act))
+        up, lo = act >= self._ws_up - tol, act <= self._ws_lo + tol
+        cu = x >= self.col_hi - 1e-9 * (1.0 + np.abs(x))
+        cl = x <= self.col_lo + 1e-9 * (1.0 + np.abs(x))
+        if int(up.sum() + lo.sum() + cu.sum() + cl.sum()) == self.n_cols:
+            I = np.eye(self.n_cols)
+            return np.vstack([I[cu], -I[cl], self._ws_coef[up], -self._ws_coef[lo]])
+        basis = self.h.getBasis()
+        N = []
+        for j, s in enumerate(basis.col_status):
+            if s == _AT_UPPER:
+                N.append(np.eye(self.n_cols)[j])
+            elif s == _AT_LOWER:
+                N.append(-np.eye(self.n_cols)[j])
+        rs = basis.row_status
+        up = [r for r, s in enumerate(rs) if s == _AT_UPPER]
+        lo = [r for r, s in enumerate(rs) if s == _AT_LOWER]
+        N = np.vstack([np.array(N).reshape(-1, self.n_cols), self._ws_coef[up], -self._ws_coef[lo]])
+        return N if N.shape[0] == self.n_cols else None
+
+    @one_blas_thread
+    def supports(self, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """max over the pool's polytope of d^T x for each row d of ``dirs`` (k, n_cols).
+
+        Returns (values (k,), vertices (v, n_cols), which (k,) index of the maximising vertex).
+        One LP per distinct optimal basis: after each LP, every pending direction inside the
+        normal cone of its basis is answered by the same vertex (exactly, no LP).
+        """
+        dirs = np.atleast_2d(np.asarray(dirs, dtype=float))
+        k = dirs.shape[0]
+        values, which, verts = np.full(k, np.nan), np.full(k, -1, dtype=np.int64), []
+        pending = np.arange(k)
+        while pending.size:
+            i = pending[0]
+            x = self.minimize_many(-dirs[i][None, :])[0]
+            verts.append(x)
+            covered = pending == i
+            N = self.active_normals(x)
+            if N is not None:
+                try:
+                    lam = np.linalg.solve(N.T, dirs[pending].T)
+                except np.linalg.LinAlgError:
+                    lam = None
+                if lam is not None:
+                    scale = np.linalg.norm(dirs[pending], axis=1)
+                    covered |= np.all(lam >= -_CONE_TOL * scale, axis=0)
+            values[pending[covered]] = dirs[pending[covered]] @ x
+            which[pending[covered]] = len(verts) - 1
+            pending = pending[~covered]
+        return values, np.array(verts), which

@@ -4,8 +4,33 @@ P = {theta : |y_k - w_k^T theta| <= e_k for every row k}  (optionally  ∩ box �
 
 Every exact quantity here is an LP solved by HiGHS (``highspy``) with constraint generation
 (:mod:`boundid.sets._working_set`): a small working set of rows, the most violated rows of the
-whole data added after each solve, warm re-solves. Internally each strip is normalised by its
-bound, a_k = w_k / e_k, c_k = y_k / e_k, so that it reads c_k - 1 <= a_k^T theta <= c_k + 1.
+whole data added after each solve, warm re-solves.
+
+Well-scaled coordinates (the *frame*). The LPs never see theta itself but z with
+theta = origin + scale * z (element-wise), so that the answer does not depend on the units of
+the parameters or of y:
+
+* first frame: ``scale_j`` = 1 / RMS_k(w_kj / e_k) (column equilibration; capped by the prior
+  box's half-width), ``origin`` = a least-squares fit on a sample of rows (so that the strips
+  pass near z = 0 even when e_k is 1e-9 of |y_k|);
+* during and after the bounds: the LP bounding box itself, origin = its centre and scale = its
+  half-widths, so that P spans [-1, 1] along every z_j. bounds() runs in stages on strided
+  samples of the rows (N / 16^k); after each stage it moves to the frame of that stage's
+  bounding box (which contains P's) and drops the strips that contain the box (no later optimum
+  can violate them: the box-screen of issue 19); the last stage is re-solved once more in the
+  final box frame when that frame was off by more than 10x in some direction and the vertices
+  fail their certificate (see Bounds) where they were solved.
+
+In z, strip k is {z : |r_k - (w_k * scale)^T z| <= e_k} with r_k = y_k - w_k^T origin; each row
+is divided by n_k = |w_k * scale|, so the LP rows have unit norm, the strip's half-width is
+e_k / n_k and every LP tolerance is a Euclidean distance in box units (1e-9 of P's half-widths).
+The prior box becomes column bounds (lo - origin) / scale <= z <= (hi - origin) / scale and the
+halfspaces A theta <= b become (A * scale) z <= b - A origin, normalised the same way.
+
+Certificates. ``Consistency.theta`` is a point whose residuals are evaluated on the original
+data (gamma is the largest |y_k - w_k^T theta| / e_k there); ``Bounds`` carries the 2p optimal
+vertices and their mean, each checked against the original strips, box and halfspaces before
+the bounds are returned (tolerances stated in :class:`Bounds`).
 """
 
 from __future__ import annotations
@@ -19,12 +44,19 @@ from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError, cKDTree
 
 from boundid._validation import as_bounds, as_float_array, as_matrix, as_regression, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
-from boundid.sets._working_set import Block, LPStatusError, WorkingSetLP
+from boundid.sets._working_set import CHUNK, Block, LPStatusError, WorkingSetLP, sample_levels, strided_sample
 
 #: largest dimension for which vertices() and volume() enumerate vertices exactly
 MAX_VERTEX_DIM = 6
 #: relative margin for "a side of a strip is reached by P" (LP solutions are accurate to ~1e-10)
 _TOUCH_TOL = 1e-8
+#: LP feasibility tolerance of the pool rows, in frame units (a distance in z)
+LP_TOL = 1e-9
+#: stated tolerance of the vertex certificate, relative to P's half-widths (see Bounds)
+VERTEX_TOL = 1e-8
+#: the bounds are re-solved in the box frame when a half-width in the first frame is outside this
+_FRAME_OK = (0.1, 10.0)
+_EPS = np.finfo(float).eps
 
 
 @dataclass(frozen=True)
@@ -33,7 +65,15 @@ class Bounds:
 
     lo, hi : (p,) min and max of each theta_j over P.
     argmin, argmax : (p, p) row j is a vertex of P where theta_j attains lo_j (resp. hi_j).
-    info : solver statistics (working-set rows, LP solves, time_s).
+    info : solver statistics (working-set rows, LP solves, passes over the data, time_s, frame).
+    point : (p,) the mean of the 2p vertices, a point of P (by convexity): the feasibility
+        certificate, its residuals evaluated on the original data.
+    residual_ratio : max_k |y_k - w_k^T point| / e_k at ``point`` (<= 1: ``point`` is in P).
+    vertex_excess : the certificate of the vertices, checked before the bounds are returned:
+        max over the 2p vertices x and every row k of (|y_k - w_k^T x| - e_k) / tau_k with
+        tau_k = 1e-8 |w_k * half_width| + 16 eps (|y_k| + |w_k|^T |x|) (1e-8 of P's width
+        along the strip, plus the rounding of the residual); <= 1 by construction (a larger
+        value raises SolverError). Box sides and halfspaces are checked likewise.
     """
 
     lo: np.ndarray
@@ -41,6 +81,9 @@ class Bounds:
     argmin: np.ndarray
     argmax: np.ndarray
     info: dict = field(default_factory=dict)
+    point: np.ndarray | None = None
+    residual_ratio: float = float("nan")
+    vertex_excess: float = float("nan")
 
     @property
     def center(self) -> np.ndarray:
@@ -59,21 +102,30 @@ class Bounds:
 class Consistency:
     """Result of the consistency LP gamma* = min_theta max_k |y_k - w_k^T theta| / e_k.
 
-    gamma : gamma* (P is empty iff gamma > 1; gamma is the smallest uniform inflation of all
-        bounds that makes the data consistent).
-    theta : (p,) a minimiser (the minimax / Chebyshev-norm estimate).
+    gamma : max_k |y_k - w_k^T theta| / e_k evaluated on the original data at ``theta`` (an
+        upper bound on gamma*, equal to it to solver accuracy; P is empty iff gamma* > 1; gamma
+        is the smallest uniform inflation of all bounds that makes the data consistent).
+    theta : (p,) a minimiser (the minimax / Chebyshev-norm estimate): when gamma <= 1 it is a
+        point of P, the feasibility certificate.
     violated : indices of the rows with |y_k - w_k^T theta| > e_k at ``theta``.
     active : indices of the rows at the level gamma* at ``theta`` (they decide gamma*).
+    lp_gamma : the LP's optimal value (solved in well-scaled coordinates).
+    tol : resolution of the verdict: 1e-9 plus the rounding of the residuals in double
+        precision, 16 eps max_k (|y_k| + |w_k|^T |theta|) / e_k (relevant when e_k << |y_k|).
     """
 
     gamma: float
     theta: np.ndarray
     violated: np.ndarray
     active: np.ndarray
+    lp_gamma: float = float("nan")
+    tol: float = 1e-9
 
     @property
     def empty(self) -> bool:
-        return self.gamma > 1.0 + 1e-9
+        """True iff both the LP value and the value at ``theta`` exceed 1 + tol."""
+        lp = self.lp_gamma if np.isfinite(self.lp_gamma) or np.isinf(self.gamma) else self.gamma
+        return min(self.gamma, lp) > 1.0 + self.tol
 
     def __float__(self) -> float:
         return float(self.gamma)
@@ -109,12 +161,31 @@ def _halfspaces(hs, p: int) -> tuple[np.ndarray, np.ndarray] | None:
     return A, b
 
 
+def _chunks(n: int):
+    for start in range(0, n, CHUNK):
+        yield slice(start, min(n, start + CHUNK))
+
+
+@dataclass(frozen=True)
+class _Frame:
+    """Well-scaled coordinates theta = origin + scale * z and the strips seen from them:
+    r = y - W origin (N,), n = |w_k * scale| (N,; 1 for an all-zero row)."""
+
+    origin: np.ndarray
+    scale: np.ndarray
+    r: np.ndarray
+    n: np.ndarray
+
+    def to_theta(self, Z: np.ndarray) -> np.ndarray:
+        return self.origin + self.scale * Z
+
+
 class Polytope:
     """The feasible set P = {theta : |y_k - w_k^T theta| <= e_k} ∩ box ∩ {A theta <= b}.
 
     Parameters
     ----------
-    W : (N, p) regression rows w_k.
+    W : (N, p) regression rows w_k (referenced, not copied, if already float64).
     y : (N,) targets y_k.
     e_max : scalar or (N,) strictly positive error bounds e_k (same unit as y).
     box : optional (lo, hi), each (p,), a prior box lo <= theta <= hi (+-inf for an open side).
@@ -128,20 +199,16 @@ class Polytope:
         self.W, self.y, self.e_max = W, y, e
         self.box = _box(box, p)
         self.halfspaces = _halfspaces(halfspaces, p)
-        # normalised strips c_k - 1 <= a_k^T theta <= c_k + 1
-        self._A = W / e[:, None]
-        self._c = y / e
-        if self.halfspaces is not None:
-            nrm = np.linalg.norm(self.halfspaces[0], axis=1)
-            self._H = self.halfspaces[0] / nrm[:, None]
-            self._h = self.halfspaces[1] / nrm
-        else:
-            self._H, self._h = np.zeros((0, p)), np.zeros(0)
+        self._frame: _Frame | None = None
         self._engine: WorkingSetLP | None = None
         self._bounds: Bounds | None = None
         self._consistency: Consistency | None = None
         self._vertices: np.ndarray | None = None
-        self._seed_rows: np.ndarray | None = None
+        self._rank: int | None = None
+        #: points of P found by LPs (theta units), for screening and for verifying outer sets
+        self._found: list[np.ndarray] = []
+        #: results of the SDPs of boundid.sets.sdp on this P (they are deterministic)
+        self._sdp_cache: dict = {}
 
     @classmethod
     def from_strips(cls, W, y, e_max, box=None, halfspaces=None) -> Polytope:
@@ -159,8 +226,19 @@ class Polytope:
 
     def __repr__(self) -> str:
         extra = (", box" if self.box is not None else "") + (
-            f", {len(self._h)} halfspaces" if len(self._h) else "")
+            f", {len(self.halfspaces[1])} halfspaces" if self.halfspaces is not None else "")
         return f"Polytope(dim={self.dim}, strips={self.n_strips}{extra})"
+
+    def residual_ratio(self, points) -> np.ndarray:
+        """max_k |y_k - w_k^T x| / e_k for each row x of ``points`` (m, p), on the original data."""
+        X = np.atleast_2d(as_float_array(points, "points"))
+        if X.shape[-1] != self.dim:
+            raise InputError(f"points must have {self.dim} columns, got shape {X.shape}.")
+        out = np.zeros(X.shape[0])
+        for sl in _chunks(self.n_strips):
+            R = np.abs(self.y[sl, None] - self.W[sl] @ X.T) / self.e_max[sl, None]
+            out = np.maximum(out, R.max(axis=0))
+        return out
 
     def contains(self, points, atol: float = 1e-9) -> np.ndarray | bool:
         """Whether each point (row of ``points``) satisfies every constraint up to ``atol``
@@ -168,23 +246,26 @@ class Polytope:
         X = np.atleast_2d(as_float_array(points, "points"))
         if X.shape[-1] != self.dim:
             raise InputError(f"points must have {self.dim} columns, got shape {X.shape}.")
-        ok = np.all(np.abs(X @ self._A.T - self._c) <= 1.0 + atol, axis=1)
+        ok = self.residual_ratio(X) <= 1.0 + atol
         if self.box is not None:
             ok &= np.all((X >= self.box[0] - atol * (1 + np.abs(self.box[0])))
                          & (X <= self.box[1] + atol * (1 + np.abs(self.box[1]))), axis=1)
-        if len(self._h):
-            ok &= np.all(X @ self._H.T <= self._h + atol * (1 + np.abs(self._h)), axis=1)
+        if self.halfspaces is not None:
+            H, h = self.halfspaces
+            nrm = np.linalg.norm(H, axis=1)
+            ok &= np.all(X @ (H / nrm[:, None]).T <= h / nrm + atol * (1 + np.abs(h / nrm)), axis=1)
         return bool(ok[0]) if np.ndim(points) == 1 else ok
 
     def as_ranged_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Every constraint as lo_i <= a_i^T theta <= up_i.
 
         Returns (A (M, p), lo (M,), up (M,), strip (M,)): the N normalised strips first
-        (a = w/e, bounds c -+ 1, ``strip`` = row index k), then the finite sides of the box
+        (a = w/e, bounds y/e -+ 1, ``strip`` = row index k), then the finite sides of the box
         (unit rows, ``strip`` = -1), then the halfspaces (unit-norm rows, lo = -inf, ``strip`` = -1).
         """
         p = self.dim
-        A, lo, up, idx = [self._A], [self._c - 1.0], [self._c + 1.0], [np.arange(self.n_strips)]
+        c = self.y / self.e_max
+        A, lo, up, idx = [self.W / self.e_max[:, None]], [c - 1.0], [c + 1.0], [np.arange(self.n_strips)]
         if self.box is not None:
             blo, bhi = self.box
             keep = np.isfinite(blo) | np.isfinite(bhi)
@@ -192,72 +273,174 @@ class Polytope:
             lo.append(blo[keep])
             up.append(bhi[keep])
             idx.append(np.full(int(keep.sum()), -1))
-        if len(self._h):
-            A.append(self._H)
-            lo.append(np.full(len(self._h), -np.inf))
-            up.append(self._h)
-            idx.append(np.full(len(self._h), -1))
+        if self.halfspaces is not None:
+            H, h = self.halfspaces
+            nrm = np.linalg.norm(H, axis=1)
+            A.append(H / nrm[:, None])
+            lo.append(np.full(len(h), -np.inf))
+            up.append(h / nrm)
+            idx.append(np.full(len(h), -1))
         return np.vstack(A), np.concatenate(lo), np.concatenate(up), np.concatenate(idx)
 
-    # ------------------------------------------------------------------ LP machinery
-    def _seed(self) -> np.ndarray:
-        """Rows chosen by QR with column pivoting of A^T: the strips of a bounding parallelotope
-        (rank(A) of them; if rank(A) = p the working set is bounded from the start, and in any
-        case its recession cone equals that of P, so it is unbounded only if P is)."""
-        if self._seed_rows is None:
-            A = self._A
-            N, p = A.shape
-            sv = np.sqrt(np.clip(np.linalg.eigvalsh(A.T @ A)[::-1], 0.0, None))
-            rank = int(np.sum(sv > max(N, p) * np.finfo(float).eps * sv[0]))
-            # pivoted QR on a strided sample of rows first (O(p^2) rows instead of N); the full
-            # QR only if the sample does not span the row space of A
-            sample = np.unique(np.linspace(0, N - 1, min(N, 20 * p)).astype(int))
-            for rows in (sample, np.arange(N)):
-                R, piv = scipy.linalg.qr(A[rows].T, mode="r", pivoting=True)
-                d = np.abs(np.diag(R))
-                r = int(np.sum(d > max(N, p) * np.finfo(float).eps * d[0])) if d.size else 0
-                if r >= rank:
-                    break
-            self._seed_rows = np.sort(rows[piv[:r]])
-        return self._seed_rows
+    # ------------------------------------------------------------------ the frame
+    def _make_frame(self, origin: np.ndarray, scale: np.ndarray) -> _Frame:
+        N = self.n_strips
+        r, n = np.empty(N), np.empty(N)
+        for sl in _chunks(N):
+            Ws = self.W[sl]
+            r[sl] = self.y[sl] - Ws @ origin
+            Ws = Ws * scale
+            n[sl] = np.sqrt(np.einsum("ij,ij->i", Ws, Ws))
+        n[n == 0] = 1.0
+        return _Frame(origin.copy(), scale.copy(), r, n)
 
-    def _col_bounds(self, extra: tuple[float, float] | None = None):
+    def _first_frame(self) -> _Frame:
+        """Column equilibration (capped by the box) and a least-squares origin (module docstring)."""
+        W, y, e = self.W, self.y, self.e_max
+        N, p = W.shape
+        ss = np.zeros(p)
+        for sl in _chunks(N):
+            ss += np.einsum("ij,ij->j", W[sl], W[sl] / e[sl, None] ** 2)
+        rms = np.sqrt(ss / N)
+        scale = np.where(rms > 0, 1.0 / np.where(rms > 0, rms, 1.0), np.inf)
+        if self.box is not None:
+            hb = 0.5 * (self.box[1] - self.box[0])
+            scale = np.where(np.isfinite(hb), np.minimum(scale, hb), scale)
+        scale[~np.isfinite(scale)] = 1.0          # a column the data never see and no box closes
+        rows = np.unique(np.linspace(0, N - 1, min(N, 50 * p)).astype(np.int64))
+        As = W[rows] * scale / e[rows, None]
+        origin = np.zeros(p)
+        for _ in range(2):                        # least squares, then one step of refinement
+            res = (y[rows] - W[rows] @ origin) / e[rows]
+            origin = origin + scale * np.linalg.lstsq(As, res, rcond=None)[0]
+        if self.box is not None:
+            lo, hi = self.box
+            origin = np.clip(origin, np.where(np.isfinite(lo), lo, -np.inf), np.where(np.isfinite(hi), hi, np.inf))
+            mid = 0.5 * (lo + hi)
+            origin = np.where(np.isfinite(mid), np.where(origin <= lo, mid, origin), origin)
+            origin = np.where(np.isfinite(mid), np.where(origin >= hi, mid, origin), origin)
+        return self._make_frame(origin, scale)
+
+    def _get_frame(self) -> _Frame:
+        if self._frame is None:
+            self._frame = self._first_frame()
+        return self._frame
+
+    def _strip_block(self, F: _Frame) -> Block:
+        """The strips in frame F: (r_k - e_k)/n_k <= (w_k * scale)^T z / n_k <= (r_k + e_k)/n_k."""
+        return Block(self.W, (F.r - self.e_max) / F.n, (F.r + self.e_max) / F.n, d=F.scale, s=F.n)
+
+    def _halfspace_block(self, F: _Frame, g_extra=None) -> Block:
+        if self.halfspaces is None:
+            return Block(np.zeros((0, self.dim)), np.zeros(0), np.zeros(0), d=F.scale, s=np.ones(0),
+                         g=None if g_extra is None else np.zeros(0))
+        H, h = self.halfspaces
+        s = np.linalg.norm(H * F.scale, axis=1)
+        g = None if g_extra is None else g_extra(H, s)
+        return Block(H, np.full(len(h), -np.inf), (h - H @ F.origin) / s, d=F.scale, s=s, g=g)
+
+    def _col_bounds(self, F: _Frame, extra: tuple[float, float] | None = None):
         p = self.dim
-        lo = self.box[0].copy() if self.box is not None else np.full(p, -np.inf)
-        hi = self.box[1].copy() if self.box is not None else np.full(p, np.inf)
+        lo = (self.box[0] - F.origin) / F.scale if self.box is not None else np.full(p, -np.inf)
+        hi = (self.box[1] - F.origin) / F.scale if self.box is not None else np.full(p, np.inf)
         if extra is not None:
             lo, hi = np.append(lo, extra[0]), np.append(hi, extra[1])
         return lo, hi
 
-    def _theta_blocks(self) -> list[Block]:
-        return [Block(self._A, self._c - 1.0, self._c + 1.0),
-                Block(self._H, np.full(len(self._h), -np.inf), self._h.copy())]
+    def _seed(self, F: _Frame) -> np.ndarray:
+        """Rows chosen by QR with column pivoting of the frame's unit rows on a strided sample
+        (rank of the data many of them; if the rank is p the working set is bounded from the
+        start). Rows are added for directions the sample does not see but the data do."""
+        W, N, p = self.W, self.n_strips, self.dim
+        rows = np.unique(np.linspace(0, N - 1, min(N, 20 * p)).astype(np.int64))
+        for _ in range(p + 1):
+            A = W[rows] * F.scale / F.n[rows, None]
+            R, piv = scipy.linalg.qr(A.T, mode="r", pivoting=True)
+            d = np.abs(np.diag(R))
+            r = int(np.sum(d > max(N, p) * _EPS * d[0])) if d.size and d[0] > 0 else 0
+            if r == p or r >= self._data_rank(F):
+                break
+            _, _, Vt = np.linalg.svd(A, full_matrices=True)
+            null = Vt[r:]                          # directions the sample does not see
+            best, arg = np.zeros(null.shape[0]), np.zeros(null.shape[0], dtype=np.int64)
+            for sl in _chunks(N):
+                proj = np.abs((W[sl] * F.scale / F.n[sl, None]) @ null.T)
+                i = np.argmax(proj, axis=0)
+                better = proj[i, np.arange(len(i))] > best
+                best[better], arg[better] = proj[i, np.arange(len(i))][better], sl.start + i[better]
+            rows = np.union1d(rows, arg[best > 0])
+        return np.sort(rows[piv[:r]])
 
-    def _new_theta_engine(self, seed_from: WorkingSetLP | None = None) -> WorkingSetLP:
-        seed = [(0, self._seed()), (1, np.arange(len(self._h)))]
-        if seed_from is not None:
-            seed = [(b, np.flatnonzero(m)) for b, m in enumerate(seed_from.in_ws)]
-        return WorkingSetLP(self._theta_blocks(), *self._col_bounds(), seed=seed)
+    def _data_rank(self, F: _Frame) -> int:
+        """Numerical rank of the frame's unit rows (one pass for their Gram matrix)."""
+        if self._rank is None:
+            G = np.zeros((self.dim, self.dim))
+            for sl in _chunks(self.n_strips):
+                A = self.W[sl] * F.scale / F.n[sl, None]
+                G += A.T @ A
+            ev = np.clip(np.linalg.eigvalsh(G)[::-1], 0.0, None)
+            sv = np.sqrt(ev)
+            self._rank = int(np.sum(sv > max(self.n_strips, self.dim) * _EPS * sv[0])) if sv[0] > 0 else 0
+        return self._rank
 
     def _theta_engine(self) -> WorkingSetLP:
         if self._engine is None:
-            self._engine = self._new_theta_engine()
+            F = self._get_frame()
+            self._engine = WorkingSetLP([self._strip_block(F), self._halfspace_block(F)], *self._col_bounds(F),
+                                        seed=[(0, self._seed(F)), (1, np.arange(self._n_half))], tol=LP_TOL)
         return self._engine
 
-    def _minimize(self, engine: WorkingSetLP, cost: np.ndarray) -> tuple[np.ndarray, float]:
-        """cost^T theta minimised over P, translating LP statuses into boundid errors."""
+    @property
+    def _n_half(self) -> int:
+        return 0 if self.halfspaces is None else len(self.halfspaces[1])
+
+    def _box_reach(self, F: _Frame) -> np.ndarray:
+        """Strips not implied by the box [-1, 1]^p of frame F: |g_k|_1 reaches a side (one pass)."""
+        keep = np.zeros(self.n_strips, dtype=bool)
+        for sl in _chunks(self.n_strips):
+            reach = np.abs(self.W[sl]) @ F.scale / F.n[sl]
+            mid, half = F.r[sl] / F.n[sl], self.e_max[sl] / F.n[sl]
+            keep[sl] = reach + np.abs(mid) > half - _TOUCH_TOL * (1.0 + half + np.abs(mid))
+        return np.flatnonzero(keep)
+
+    def _set_frame(self, F: _Frame, pool: np.ndarray | None = None) -> None:
+        """Move the LPs to frame F, keeping the working set's rows; ``pool``: the strips the
+        passes look at (None: all)."""
+        old = self._engine
+        self._frame = F
+        seed = [(0, old.ws_rows(0)), (1, np.arange(self._n_half))] if old is not None else \
+            [(0, self._seed(F)), (1, np.arange(self._n_half))]
+        self._engine = WorkingSetLP([self._strip_block(F), self._halfspace_block(F)], *self._col_bounds(F),
+                                    seed=seed, tol=LP_TOL)
+        if old is not None:
+            self._engine.take_basis(old)
+        self._engine.active[0] = pool
+
+    # ------------------------------------------------------------------ LP calls
+    def _minimize_many(self, costs_z: np.ndarray, levels: tuple[int, ...] = ()) -> np.ndarray:
+        """argmin over P of each row of ``costs_z`` (k, p) in frame coordinates -> (k, p) in z."""
         try:
-            return engine.minimize(cost)
+            return self._theta_engine().minimize_many(costs_z, levels=levels)
         except LPStatusError as exc:
-            if exc.status == "unbounded":
-                raise self._unbounded_error() from None
-            cons = self.consistency()
-            if cons.empty or exc.status == "infeasible":
-                raise self._infeasible_error(cons) from None
-            raise self._unbounded_error() from None
+            raise self._status_error(exc.status) from None
+
+    def _status_error(self, status: str) -> Exception:
+        if status == "unbounded":
+            return self._unbounded_error()
+        cons = self.consistency()
+        if cons.empty:
+            return self._infeasible_error(cons)
+        if status == "infeasible":
+            if cons.gamma >= 1.0 - 1e-6:
+                return self._infeasible_error(cons)
+            return SolverError(
+                f"HiGHS reported the feasible set empty although the point theta = {cons.theta.tolist()} "
+                f"satisfies every strip (max |y - w^T theta| / e = {cons.gamma:.6g} < 1): a numerical "
+                "failure. Check the data for rows of very different magnitude, or report the case.")
+        return self._unbounded_error()
 
     def _unbounded_error(self) -> InputError:
-        rank = len(self._seed())
+        rank = self._data_rank(self._get_frame())
         return InputError(
             f"the feasible set is unbounded: W ({self.n_strips} x {self.dim}) has numerical rank {rank}"
             + (f" < {self.dim}" if rank < self.dim else "")
@@ -284,28 +467,39 @@ class Polytope:
     # ------------------------------------------------------------------ consistency
     def consistency(self) -> Consistency:
         """gamma* = min_theta max_k |y_k - w_k^T theta| / e_k over the prior (one LP,
-        REFERENCES §3); gamma = inf if the prior alone is empty. Never raises for bad data."""
+        REFERENCES §3); gamma = inf if the prior alone is empty. Never raises for bad data.
+
+        Solved in the first frame: rows [w_k * scale, e_k] / |[w_k * scale, e_k]| on (z, t), so
+        that both the parameters and the level t = gamma are well scaled."""
         if self._consistency is not None:
             return self._consistency
-        A, c = self._A, self._c
-        N, p = A.shape
-        blocks = [Block(A, c.copy(), np.full(N, np.inf), g=np.ones(N)),       # a theta + t >= c
-                  Block(A, np.full(N, -np.inf), c.copy(), g=-np.ones(N)),     # a theta - t <= c
-                  Block(self._H, np.full(len(self._h), -np.inf), self._h.copy())]
-        seed = [(0, self._seed()), (1, self._seed()), (2, np.arange(len(self._h)))]
-        eng = WorkingSetLP(blocks, *self._col_bounds((0.0, np.inf)), seed=seed)
+        F = self._get_frame()
+        W, e = self.W, self.e_max
+        N, p = W.shape
+        s = np.sqrt(F.n**2 + e**2)
+        blocks = [Block(W, F.r / s, np.full(N, np.inf), g=e / s, d=F.scale, s=s),       # w z + e t >= r
+                  Block(W, np.full(N, -np.inf), F.r / s, g=-e / s, d=F.scale, s=s),     # w z - e t <= r
+                  self._halfspace_block(F, g_extra=lambda H, sh: np.zeros(len(sh)))]
+        seed = self._seed(F)
+        eng = WorkingSetLP(blocks, *self._col_bounds(F, (0.0, np.inf)),
+                           seed=[(0, seed), (1, seed), (2, np.arange(self._n_half))], tol=LP_TOL)
         cost = np.zeros(p + 1)
         cost[p] = 1.0
         try:
-            x, gamma = eng.minimize(cost)
+            x = eng.minimize_many(cost[None, :], levels=sample_levels(N))[0]
         except LPStatusError:
-            res = Consistency(np.inf, np.full(p, np.nan), np.arange(N), np.zeros(0, dtype=int))
+            res = Consistency(np.inf, np.full(p, np.nan), np.arange(N), np.zeros(0, dtype=int), np.inf)
         else:
-            theta = x[:p]
-            rho = np.abs(A @ theta - c)
-            gamma = max(gamma, float(rho.max()))
-            res = Consistency(gamma, theta, np.flatnonzero(rho > 1.0 + 1e-9),
-                              np.flatnonzero(rho >= gamma - 1e-7 * max(gamma, 1.0)))
+            theta = F.to_theta(x[:p])
+            dz = F.scale * x[:p]
+            rho, mag = np.empty(N), np.empty(N)
+            for sl in _chunks(N):
+                rho[sl] = np.abs(F.r[sl] - W[sl] @ dz) / e[sl]
+                mag[sl] = (np.abs(self.y[sl]) + np.abs(W[sl]) @ np.abs(theta)) / e[sl]
+            gamma = float(rho.max())
+            tol = 1e-9 + 16 * _EPS * float(mag.max())
+            res = Consistency(gamma, theta, np.flatnonzero(rho > 1.0 + tol),
+                              np.flatnonzero(rho >= gamma - 1e-7 * max(gamma, 1.0)), float(x[p]), tol)
         self._consistency = res
         return res
 
@@ -317,160 +511,372 @@ class Polytope:
     def bounds(self) -> Bounds:
         """Exact min and max of every parameter over P (2p LPs, one warm HiGHS model).
 
-        Raises InfeasibleDataError if P is empty, InputError if P is unbounded.
+        Raises InfeasibleDataError if P is empty, InputError if P is unbounded, SolverError if
+        the vertices fail their certificate (see :class:`Bounds`).
         """
         if self._bounds is not None:
             return self._bounds
         t0 = time.perf_counter()
         p = self.dim
-        eng = self._theta_engine()
-        lo, hi = np.empty(p), np.empty(p)
-        amin, amax = np.empty((p, p)), np.empty((p, p))
-        for j in range(p):
-            cost = np.zeros(p)
-            cost[j] = 1.0
-            amin[j], lo[j] = self._minimize(eng, cost)
-            amax[j], v = self._minimize(eng, -cost)
-            hi[j] = -v
-        info = {"working_rows": eng.n_rows, "lp_solves": eng.n_solves, "time_s": time.perf_counter() - t0}
-        self._bounds = Bounds(lo, hi, amin, amax, info)
+        costs = np.vstack([np.eye(p), -np.eye(p)])
+        stats = {"lp_solves": 0, "passes": 0, "frames": 0}
+
+        def count():
+            stats["lp_solves"] += self._engine.n_solves
+            stats["passes"] += self._engine.n_passes
+            stats["frames"] += 1
+
+        # stages on strided samples; after each, move to the frame of its bounding box (which
+        # contains P's): the next stage and the last one then run where P spans about [-1, 1]
+        levels = sample_levels(self.n_strips)
+        resolved = False
+        reach = None                                   # strips the current box can leave
+        for stage in [*levels, None]:
+            rows = reach if stage is None else strided_sample(self.n_strips, stage)
+            if stage is not None and reach is not None:
+                rows = np.intersect1d(rows, reach, assume_unique=True)
+            self._theta_engine().active[0] = rows
+            Z = self._minimize_many(costs)
+            F = self._frame
+            zlo, zhi = np.diag(Z[:p]), np.diag(Z[p:])
+            hw, cz = 0.5 * (zhi - zlo), 0.5 * (zhi + zlo)
+            if hw.max() <= 0:
+                break
+            box_frame = self._make_frame(F.to_theta(cz), F.scale * np.maximum(hw, 1e-12 * hw.max()))
+            lo_ok, hi_ok = _FRAME_OK
+            off = np.any(hw < lo_ok) or np.any(hw > hi_ok) or np.any(np.abs(cz) > hi_ok * np.maximum(hw, 1.0))
+            count()
+            if stage is None and off and not self._certified(F.to_theta(Z), F.scale * hw, rows):
+                self._set_frame(box_frame, reach)      # re-solve where P spans [-1, 1]
+                Z = self._minimize_many(costs)
+                F = self._frame
+                resolved = True
+                count()
+            Zt = F.to_theta(Z)
+            # every later optimum lies in the working set's polytope, inside this stage's
+            # bounding box ([-1, 1]^p in box_frame): a strip containing that box is never violated
+            reach = self._box_reach(box_frame)
+            self._set_frame(box_frame, reach)
+            Z = (Zt - box_frame.origin) / box_frame.scale
+            F = box_frame
+        stats["working_rows"] = self._engine.n_rows
+        stats["strips_reaching_box"] = int(reach.size) if reach is not None else self.n_strips
+        X = F.to_theta(Z)
+        amin, amax = X[:p], X[p:]
+        lo, hi = np.diag(amin).copy(), np.diag(amax).copy()
+        self._found.extend(X)
+        point = X.mean(axis=0)
+        excess = self._vertex_excess(X, 0.5 * (hi - lo), reach)
+        ratio = float(self.residual_ratio(point)[0])
+        info = {**stats, "time_s": time.perf_counter() - t0, "resolved_in_box_frame": resolved}
+        self._bounds = Bounds(lo, hi, amin, amax, info, point, ratio, excess)
         return self._bounds
+
+    def _certified(self, X: np.ndarray, half_width: np.ndarray, rows: np.ndarray | None) -> bool:
+        """Whether the points X pass the vertex certificate of Bounds (see _vertex_excess)."""
+        try:
+            self._vertex_excess(X, half_width, rows)
+        except SolverError:
+            return False
+        return True
+
+    def _vertex_excess(self, X: np.ndarray, half_width: np.ndarray, rows: np.ndarray | None = None) -> float:
+        """max over points X (m, p) and constraints of violation / stated tolerance (see Bounds);
+        raises SolverError above 1. ``rows``: the strips that can be violated at all (the others
+        contain the bounding box of P, which holds X, with a margin; None: every strip)."""
+        worst, where = 0.0, ""
+        idx = np.arange(self.n_strips) if rows is None else rows
+        for sl in _chunks(idx.size):
+            sl = idx[sl]
+            Ws = self.W[sl]
+            R = np.abs(self.y[sl, None] - Ws @ X.T) - self.e_max[sl, None]
+            rows, cols = np.nonzero(R > 0)                # only rows outside their bound need tau
+            if rows.size == 0:
+                continue
+            Wr, Xc = Ws[rows], X[cols]
+            tau = VERTEX_TOL * np.linalg.norm(Wr * half_width, axis=1) \
+                + 16 * _EPS * (np.abs(self.y[sl][rows]) + np.einsum("ij,ij->i", np.abs(Wr), np.abs(Xc)))
+            q = R[rows, cols] / np.maximum(tau, np.finfo(float).tiny)
+            if q.max() > worst:
+                worst, where = float(q.max()), f"strip {int(sl[rows[np.argmax(q)]])}"
+        if self.box is not None:
+            tau = VERTEX_TOL * half_width + 16 * _EPS * np.abs(X)
+            q = np.maximum(self.box[0] - X, X - self.box[1]) / np.maximum(tau, np.finfo(float).tiny)
+            if q.max() > worst:
+                worst, where = float(q.max()), "prior box"
+        if self.halfspaces is not None:
+            H, h = self.halfspaces
+            tau = VERTEX_TOL * np.linalg.norm(H * half_width, axis=1)[:, None] \
+                + 16 * _EPS * (np.abs(h)[:, None] + np.abs(H) @ np.abs(X).T)
+            q = (H @ X.T - h[:, None]) / np.maximum(tau, np.finfo(float).tiny)
+            if q.max() > worst:
+                worst, where = float(q.max()), "halfspace"
+        if worst > 1.0:
+            raise SolverError(
+                f"the LP vertices fail their certificate: one violates the {where} by {worst:.3g} times "
+                f"the stated tolerance (1e-8 of P's width along the constraint plus rounding). The data "
+                "may have rows of wildly different magnitude; rescale them, or report the case.")
+        return worst
+
+    def _cost_z(self, direction: np.ndarray) -> tuple[np.ndarray, float, float]:
+        """A direction d of theta space in frame coordinates: d^T theta = off + nrm * (u^T z)."""
+        F = self._theta_frame()
+        dz = direction * F.scale
+        nrm = float(np.linalg.norm(dz))
+        if nrm == 0:
+            raise InputError("direction must not be zero.")
+        return dz / nrm, float(direction @ F.origin), nrm
+
+    def _theta_frame(self) -> _Frame:
+        self._theta_engine()
+        return self._frame
 
     def _direction(self, direction) -> np.ndarray:
         return as_vector(direction, "direction", self.dim)
 
-    def support(self, direction) -> float:
-        """max over P of d^T theta (one LP)."""
-        d = self._direction(direction)
-        return -self._minimize(self._theta_engine(), -d)[1]
-
     def support_point(self, direction) -> tuple[float, np.ndarray]:
         """(max over P of d^T theta, a maximising vertex) (one LP); for projections of P."""
         d = self._direction(direction)
-        x, v = self._minimize(self._theta_engine(), -d)
-        return -v, x
+        u, off, nrm = self._cost_z(d)
+        z = self._minimize_many(-u[None, :])[0]
+        x = self._frame.to_theta(z)
+        self._found.append(x)
+        return off + nrm * float(u @ z), x
+
+    def support_points(self, directions) -> tuple[np.ndarray, np.ndarray]:
+        """(max over P of d^T theta, a maximising vertex) for each row d of ``directions`` (m, p):
+        values (m,), points (m, p). Batched: one LP per distinct optimal basis, every other
+        direction in that basis's normal cone answered by the same vertex (no LP)."""
+        D = np.atleast_2d(as_float_array(directions, "directions"))
+        if D.ndim != 2 or D.shape[1] != self.dim or not np.all(np.isfinite(D)):
+            raise InputError(f"directions must be a finite (m, {self.dim}) array, got shape {D.shape}.")
+        if np.any(~np.any(D != 0, axis=1)):
+            raise InputError("directions must not contain a zero row.")
+        F = self._theta_frame()
+        Dz = D * F.scale
+        nrm = np.linalg.norm(Dz, axis=1)
+        try:
+            vals, V, which = self._engine.supports(Dz / nrm[:, None])
+        except LPStatusError as exc:
+            raise self._status_error(exc.status) from None
+        X = F.to_theta(V)
+        self._found.extend(X)
+        return D @ F.origin + nrm * vals, X[which]
+
+    def support(self, direction) -> float:
+        """max over P of d^T theta (one LP)."""
+        return self.support_point(direction)[0]
 
     def extent(self, direction) -> tuple[float, float]:
         """(min, max) of d^T theta over P (two LPs)."""
         d = self._direction(direction)
-        eng = self._theta_engine()
-        return self._minimize(eng, d)[1], -self._minimize(eng, -d)[1]
+        return -self.support(-d), self.support(d)
+
+    def _strip_extents(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) of (w_k * scale)^T z / n_k over P in the current frame for strips ``rows``,
+        by the batched supports of :meth:`WorkingSetLP.supports` (normal cones shared)."""
+        self.bounds()
+        eng = self._engine
+        F = self._frame
+        G = self.W[rows] * F.scale / F.n[rows, None]
+        D = np.vstack([G, -G])
+        side = np.concatenate([(F.r[rows] + self.e_max[rows]) / F.n[rows], -(F.r[rows] - self.e_max[rows]) / F.n[rows]])
+        # a side that a known point of P touches is the support itself: no LP
+        Zk = (self.found_points() - F.origin) / F.scale
+        touched = np.max(D @ Zk.T, axis=1) >= side - LP_TOL if len(Zk) else np.zeros(len(D), dtype=bool)
+        vals = np.where(touched, side, np.nan)
+        if not touched.all():
+            try:
+                v, V, _ = eng.supports(D[~touched])
+            except LPStatusError as exc:
+                raise self._status_error(exc.status) from None
+            vals[~touched] = v
+            self._found.extend(F.to_theta(V))
+        m = len(rows)
+        return -vals[m:], vals[:m]
 
     def tightened(self, rows=None) -> Polytope:
         """The strips ``rows`` (default: all) each shrunk to the exact extent of P along w_k
-        (2 LPs per strip, REFERENCES §3 "strip tightening"); prior box and halfspaces kept.
+        (REFERENCES §3 "strip tightening"; supports batched by normal cones, so far fewer than
+        2 LPs per strip); prior box and halfspaces kept.
 
-        The result contains P and, when ``rows`` includes every non-redundant strip, equals it.
+        The result contains P (each tightened strip is widened by the LP tolerance, 1e-9 of P's
+        half-widths along w_k, so that no vertex of P is left outside by solver rounding) and,
+        when ``rows`` includes every non-redundant strip, equals it up to that tolerance.
         A strip on which P is flat keeps a width of 1e-12 e_k (bounds must stay positive).
         """
         rows = np.arange(self.n_strips) if rows is None else np.asarray(rows, dtype=int)
         if rows.ndim != 1 or rows.size == 0 or rows.min() < 0 or rows.max() >= self.n_strips:
             raise InputError(f"rows must be a non-empty list of strip indices in [0, {self.n_strips}).")
-        eng = self._theta_engine()
-        lo, hi = np.empty(rows.size), np.empty(rows.size)
-        for i, k in enumerate(rows):
-            a = self._A[k]
-            lo[i] = self._minimize(eng, a)[1]
-            hi[i] = -self._minimize(eng, -a)[1]
-        lo = np.maximum(lo, self._c[rows] - 1.0)
-        hi = np.minimum(hi, self._c[rows] + 1.0)
+        lz, uz = self._strip_extents(rows)
+        F = self._frame
+        n = F.n[rows]
+        # w^T theta = w^T origin + n * (unit row)^T z; as residual bounds on r = y - w^T theta
+        r_hi = F.r[rows] - n * (lz - LP_TOL)      # residual at the low end of w^T theta
+        r_lo = F.r[rows] - n * (uz + LP_TOL)
         e = self.e_max[rows]
-        half = np.maximum(0.5 * (hi - lo), 1e-12) * e
-        return Polytope(self.W[rows], 0.5 * (hi + lo) * e, half, box=self.box, halfspaces=self.halfspaces)
+        r_lo, r_hi = np.maximum(r_lo, -e), np.minimum(r_hi, e)
+        half = np.maximum(0.5 * (r_hi - r_lo), 1e-12 * e)
+        y_new = self.y[rows] - 0.5 * (r_hi + r_lo)
+        return Polytope(self.W[rows], y_new, half, box=self.box, halfspaces=self.halfspaces)
 
     # ------------------------------------------------------------------ centre, redundancy
     def chebyshev_center(self) -> tuple[np.ndarray, float]:
         """(x, r): the centre and radius of the largest Euclidean ball in P
-        (max r s.t. |y_k - w_k^T x| + r |w_k| <= e_k, box and halfspace sides likewise)."""
-        A, c = self._A, self._c
-        N, p = A.shape
-        nu = np.linalg.norm(A, axis=1)
-        blocks = [Block(A, np.full(N, -np.inf), c + 1.0, g=nu),
-                  Block(A, c - 1.0, np.full(N, np.inf), g=-nu),
-                  Block(self._H, np.full(len(self._h), -np.inf), self._h.copy(), g=np.ones(len(self._h)))]
-        seed = [(0, self._seed()), (1, self._seed()), (2, np.arange(len(self._h)))]
+        (max r s.t. |y_k - w_k^T x| + r |w_k| <= e_k, box and halfspace sides likewise).
+
+        Solved in the frame with the radius in units of the smallest frame scale."""
+        F = self._theta_frame()
+        W, e = self.W, self.e_max
+        N, p = W.shape
+        rs = float(F.scale.min())
+        wn = np.linalg.norm(W, axis=1) * rs / F.n
+        lo_s, up_s = (F.r - e) / F.n, (F.r + e) / F.n
+        blocks = [Block(W, np.full(N, -np.inf), up_s, g=wn, d=F.scale, s=F.n),
+                  Block(W, lo_s, np.full(N, np.inf), g=-wn, d=F.scale, s=F.n),
+                  self._halfspace_block(F, g_extra=lambda H, sh: np.linalg.norm(H, axis=1) * rs / sh)]
+        seed_rows = self._engine.ws_rows(0) if self._engine is not None else self._seed(F)
+        seed = [(0, seed_rows), (1, seed_rows), (2, np.arange(self._n_half))]
         if self.box is not None:
-            blo, bhi = self.box
-            blocks += [Block(np.eye(p), np.full(p, -np.inf), bhi.copy(), g=np.ones(p)),
-                       Block(np.eye(p), blo.copy(), np.full(p, np.inf), g=-np.ones(p))]
-            seed += [(3, np.flatnonzero(np.isfinite(bhi))), (4, np.flatnonzero(np.isfinite(blo)))]
-        eng = WorkingSetLP(blocks, np.append(np.full(p, -np.inf), 0.0), np.full(p + 1, np.inf), seed=seed)
+            zlo, zhi = self._col_bounds(F)
+            I = np.eye(p)
+            blocks += [Block(I, np.full(p, -np.inf), zhi, g=rs / F.scale),
+                       Block(I, zlo, np.full(p, np.inf), g=-rs / F.scale)]
+            seed += [(3, np.flatnonzero(np.isfinite(zhi))), (4, np.flatnonzero(np.isfinite(zlo)))]
+        eng = WorkingSetLP(blocks, np.append(np.full(p, -np.inf), 0.0), np.full(p + 1, np.inf), seed=seed,
+                           tol=LP_TOL)
         cost = np.zeros(p + 1)
         cost[p] = -1.0
-        x, _ = self._minimize(eng, cost)
-        return x[:p], float(x[p])
+        try:
+            x = eng.minimize_many(cost[None, :])[0]
+        except LPStatusError as exc:
+            raise self._status_error(exc.status) from None
+        return F.to_theta(x[:p]), float(x[p]) * rs
 
     def nonredundant(self) -> np.ndarray:
         """Indices of the strips that have at least one non-redundant side (a side whose
         removal would enlarge P), sorted.
 
-        Screening first: a side that the bounding box of P (``bounds()``) does not reach is
-        redundant (P is inside the box). Each surviving side gets one LP: maximise its normal
-        over P with that side relaxed; it is non-redundant iff the maximum passes the side.
-        Redundant sides are removed as they are found (sequential elimination), so duplicated
-        strips keep exactly one copy and P equals the intersection of the strips returned
-        with the prior box and halfspaces.
+        Output-sensitive in three steps: (1) a side that the bounding box of P (``bounds()``)
+        does not reach is redundant; (2) the supports of P along the remaining sides' normals,
+        batched by normal cones (one LP per distinct optimal vertex, not per side), discard
+        every side that P does not touch; (3) each touching side gets one LP with that side
+        relaxed, in sequential elimination, so duplicated strips keep exactly one copy and P
+        equals the intersection of the strips returned with the prior box and halfspaces.
         """
-        b = self.bounds()
-        cb, hb = b.center, b.half_width
-        mid = self._A @ cb
-        rad = np.abs(self._A) @ hb
-        L, U = self._c - 1.0, self._c + 1.0
-        up_cand = mid + rad > U - _TOUCH_TOL * (1.0 + np.abs(U))
-        lo_cand = mid - rad < L + _TOUCH_TOL * (1.0 + np.abs(L))
-        eng = self._new_theta_engine(seed_from=self._theta_engine())
-        # screened-out sides are dropped from the pool for good (valid: see the docstring)
-        blk = eng.blocks[0]
-        blk.up[~up_cand] = np.inf
-        blk.lo[~lo_cand] = -np.inf
+        self.bounds()
+        F = self._frame
+        blk = self._strip_block(F)
+        lo_s, up_s = blk.lo, blk.up
+        G_all = None
+        # (1) box screen: in the box frame P spans [-1, 1]^p, so |unit row|_1 bounds its reach
+        reach = np.empty(self.n_strips)
+        for sl in _chunks(self.n_strips):
+            reach[sl] = np.abs(self.W[sl] * F.scale).sum(axis=1) / F.n[sl]
+        tol_up = _TOUCH_TOL * (1.0 + np.abs(up_s))
+        tol_lo = _TOUCH_TOL * (1.0 + np.abs(lo_s))
+        up_cand = reach > up_s - tol_up
+        lo_cand = -reach < lo_s + tol_lo
+        # (2) supports along the surviving sides
+        ku, kl = np.flatnonzero(up_cand), np.flatnonzero(lo_cand)
+        if ku.size + kl.size:
+            G_all = self.W[np.concatenate([ku, kl])] * F.scale / F.n[np.concatenate([ku, kl]), None]
+            G_all[ku.size:] *= -1.0
+            try:
+                vals, V, _ = self._engine.supports(G_all)
+            except LPStatusError as exc:
+                raise self._status_error(exc.status) from None
+            self._found.extend(F.to_theta(V))
+            up_cand[ku] = vals[:ku.size] >= up_s[ku] - tol_up[ku]
+            lo_cand[kl] = vals[ku.size:] >= -lo_s[kl] - tol_lo[kl]
+        # (3) sequential elimination on the touching sides
+        eng = WorkingSetLP([self._strip_block(F), self._halfspace_block(F)], *self._col_bounds(F),
+                           seed=[(0, self._engine.ws_rows(0)), (1, np.arange(self._n_half))], tol=LP_TOL)
+        pool = eng.blocks[0]
+        pool.up[~up_cand] = np.inf
+        pool.lo[~lo_cand] = -np.inf
         for k in np.flatnonzero(~up_cand | ~lo_cand):
             if eng.row_of[0][k] >= 0:
-                eng.set_bounds(0, k, blk.lo[k], blk.up[k])
+                eng.set_bounds(0, k, pool.lo[k], pool.up[k])
         keep = np.zeros(self.n_strips, dtype=bool)
         for k in np.flatnonzero(up_cand | lo_cand):
-            a = self._A[k]
+            g = self.W[k] * F.scale / F.n[k]
             for side in (1.0, -1.0):
                 if (side > 0 and not up_cand[k]) or (side < 0 and not lo_cand[k]):
                     continue
-                bound = U[k] if side > 0 else L[k]
+                bound = up_s[k] if side > 0 else lo_s[k]
                 if side > 0:
-                    eng.set_bounds(0, k, blk.lo[k], U[k] + 1.0)
+                    eng.set_bounds(0, k, pool.lo[k], up_s[k] + 1.0)
                 else:
-                    eng.set_bounds(0, k, L[k] - 1.0, blk.up[k])
-                v = -self._minimize(eng, -side * a)[1]          # max of side * a^T theta
+                    eng.set_bounds(0, k, lo_s[k] - 1.0, pool.up[k])
+                try:
+                    x = eng.minimize_many(-side * g[None, :])[0]
+                except LPStatusError as exc:
+                    raise self._status_error(exc.status) from None
+                v = side * float(g @ x)
                 if v > side * bound + _TOUCH_TOL * (1.0 + abs(bound)):
                     keep[k] = True
-                    eng.set_bounds(0, k, L[k] if side < 0 else blk.lo[k], U[k] if side > 0 else blk.up[k])
+                    eng.set_bounds(0, k, lo_s[k] if side < 0 else pool.lo[k], up_s[k] if side > 0 else pool.up[k])
                 elif side > 0:
-                    eng.set_bounds(0, k, blk.lo[k], np.inf)
+                    eng.set_bounds(0, k, pool.lo[k], np.inf)
                 else:
-                    eng.set_bounds(0, k, -np.inf, blk.up[k])
+                    eng.set_bounds(0, k, -np.inf, pool.up[k])
         return np.flatnonzero(keep)
 
     # ------------------------------------------------------------------ vertices, volume
     def _scaled_halfspaces(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Non-screened constraints as H z <= h in box coordinates theta = cb + hb * z
-        (unit-norm rows), with (cb, hb)."""
+        """Constraints the bounding box reaches as H z <= h in box coordinates
+        theta = cb + hb * z (unit-norm rows), with (cb, hb)."""
         b = self.bounds()
         cb, hb = b.center, b.half_width
         if np.any(hb <= 0):
             raise InputError(f"P is flat (zero width along parameters {np.flatnonzero(hb <= 0)}); "
                              "it has no interior, so no vertex enumeration or volume.")
-        A, lo, up, _ = self.as_ranged_rows()
-        mid, rad = A @ cb, np.abs(A) @ hb
-        As = A * hb
+        G, c, h = self._unit_strips(cb, hb)
+        reach = np.abs(G).sum(axis=1)
         rows, rhs = [], []
-        for sgn, bound in ((1.0, up), (-1.0, lo)):
-            fin = np.isfinite(bound)
-            reach = sgn * (mid - bound) + rad > -_TOUCH_TOL * (1.0 + np.abs(np.where(fin, bound, 0.0)))
-            sel = fin & reach
-            rows.append(sgn * As[sel])
-            rhs.append(sgn * (bound[sel] - mid[sel]))
+        for sgn in (1.0, -1.0):
+            bound = sgn * c + h                     # sgn g^T z <= sgn c + h
+            sel = reach > bound - _TOUCH_TOL * (1.0 + np.abs(bound))
+            rows.append(sgn * G[sel])
+            rhs.append(bound[sel])
+        p = self.dim
+        if self.box is not None:
+            zlo, zhi = (self.box[0] - cb) / hb, (self.box[1] - cb) / hb
+            for sgn, bound in ((1.0, zhi), (-1.0, -zlo)):
+                sel = np.isfinite(bound) & (bound < 1.0 + _TOUCH_TOL)
+                rows.append(sgn * np.eye(p)[sel])
+                rhs.append(bound[sel])
+        if self.halfspaces is not None:
+            H, hv = self.halfspaces
+            Hs = H * hb
+            rows.append(Hs)
+            rhs.append(hv - H @ cb)
         # the bounding box itself (implied by P) keeps the intersection bounded and well posed
-        H = np.vstack(rows + [np.eye(self.dim), -np.eye(self.dim)])
-        h = np.concatenate(rhs + [np.ones(2 * self.dim)])
+        H = np.vstack(rows + [np.eye(p), -np.eye(p)])
+        h = np.concatenate(rhs + [np.ones(2 * p)])
         nrm = np.linalg.norm(H, axis=1)
         return H / nrm[:, None], h / nrm, cb, hb
+
+    def _unit_strips(self, cb: np.ndarray, hb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every strip as |g_k^T z - c_k| <= h_k in coordinates theta = cb + hb * z, unit-norm g_k:
+        (G (N, p), c (N,), h (N,)); an all-zero row gets g = 0 and h = inf."""
+        F = self._frame
+        if F is None or not (np.array_equal(F.origin, cb) and np.array_equal(F.scale, hb)):
+            F = self._make_frame(cb, hb)
+        return self._frame_strips(F)
+
+    def _frame_strips(self, F: _Frame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The strips in frame F as |g_k^T z - c_k| <= h_k, unit-norm g_k (one N x p copy)."""
+        G = self.W * F.scale / F.n[:, None]
+        zero = ~np.any(G != 0, axis=1)
+        return G, F.r / F.n, np.where(zero, np.inf, self.e_max / F.n)
+
+    def box_frame(self) -> tuple[np.ndarray, np.ndarray]:
+        """(origin, scale) of the coordinates theta = origin + scale * z in which the LPs run
+        after ``bounds()``: P spans [-1, 1] along every z_j (to the rounding of the bounds)."""
+        self.bounds()
+        return self._frame.origin.copy(), self._frame.scale.copy()
 
     def vertices(self) -> np.ndarray:
         """All vertices of P, (n_vertices, p), for p <= 6 (scipy HalfspaceIntersection with the
@@ -510,6 +916,10 @@ class Polytope:
         b = self.bounds()
         Z = (V - b.center) / b.half_width
         return float(ConvexHull(Z).volume * np.prod(b.half_width))
+
+    def found_points(self) -> np.ndarray:
+        """Every point of P the LPs have produced so far (vertices, support points), (m, p)."""
+        return np.array(self._found).reshape(-1, self.dim)
 
 
 def _chebyshev(H: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, float]:

@@ -1,10 +1,11 @@
 """Exact and certified ellipsoids of polytopes and point sets by SDP (cvxpy + Clarabel).
 
 REFERENCES §3: maximum-volume inscribed ellipsoid, S-procedure outer ellipsoid on tightened
-strips, John's factor-n enlargement, minimum-volume ellipsoid around points, and the exact
-one-step ellipsoid of E ∩ strip. Every SDP is solved in scaled coordinates (centred at the LP
-bounding-box centre and divided by its half-widths, or the unit-ball coordinates of E): unscaled,
-Clarabel failed on ~1000 strips.
+strips (column generation), John's factor-n enlargement, minimum-volume ellipsoid around points,
+the bracket [lower, upper] of the minimum-volume ellipsoid containing P, and the exact one-step
+ellipsoid of E ∩ strip. Every SDP is solved in scaled coordinates (the box frame of P, where P
+spans [-1, 1] along every axis, see :mod:`boundid.sets.polytope`, or the unit-ball coordinates
+of E): unscaled, Clarabel failed on ~1000 strips.
 
 Every function returns an :class:`SDPResult` (the ellipsoid plus solver status, wall time,
 the strips of P used). The result is verified before it is returned: inner ellipsoids are shrunk
@@ -25,12 +26,15 @@ from scipy.spatial import ConvexHull, QhullError
 
 from boundid._validation import as_float_array, as_matrix, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
+from boundid.sets._mvee import mvee_dual
 from boundid.sets.ellipsoid import Ellipsoid
-from boundid.sets.polytope import MAX_VERTEX_DIM, Polytope
+from boundid.sets.polytope import LP_TOL, MAX_VERTEX_DIM, Polytope
 
 #: an outer ellipsoid may be enlarged by at most this (relative, in squared radius) to repair
 #: solver inaccuracy; a larger repair means the solve was inaccurate and raises SolverError
 _MAX_REPAIR = 1e-4
+#: Clarabel settings (see _solve)
+_CLARABEL = {"tol_gap_abs": 1e-7, "tol_gap_rel": 1e-7, "tol_feas": 1e-7}
 
 
 @dataclass(frozen=True)
@@ -53,10 +57,17 @@ class SDPResult:
     info: dict = field(default_factory=dict)
 
 
-def _solve(problem: cp.Problem, allow_fallback: bool, what: str) -> tuple[str, str]:
-    """Solve with Clarabel; returns (solver, status). SCS only with ``allow_fallback``."""
+def _solve(problem: cp.Problem, allow_fallback: bool, what: str, study_scale: bool = False) -> tuple[str, str]:
+    """Solve with Clarabel; returns (solver, status). SCS only with ``allow_fallback``.
+
+    ``study_scale``: the polytope SDPs (inner, outer) run with gap and feasibility tolerances 1e-7
+    (``_CLARABEL``): at the default 1e-8 Clarabel sometimes stalls on the study-scale problems
+    ("optimal_inaccurate" after ~50 iterations, the objective already right to 1e-8, at twice the
+    cost). Their answers are verified by the caller (containment checked exactly, certificate
+    residual bounded), whatever the tolerance. The small SDPs keep the defaults.
+    """
     try:
-        problem.solve(solver=cp.CLARABEL)
+        problem.solve(solver=cp.CLARABEL, **(_CLARABEL if study_scale else {}))
         status = problem.status
     except cp.error.SolverError as exc:
         status = f"solver error ({exc})"
@@ -75,36 +86,38 @@ def _solve(problem: cp.Problem, allow_fallback: bool, what: str) -> tuple[str, s
         "interior; pass allow_fallback=True to try SCS (its answer is re-verified).")
 
 
-def _box_frame(P: Polytope):
-    """LP bounding box of P: centre, half-widths (all > 0) and the LP bounds."""
+def _frame(P: Polytope):
+    """The box frame of P (theta = origin + scale * z, P spans [-1, 1] along each z_j) and the
+    LP bounding box in it (zlo, zhi), with the LP bounds."""
     b = P.bounds()
     if np.any(b.half_width <= 0):
         raise InputError(f"P is flat along parameters {np.flatnonzero(b.half_width <= 0)} (zero width): "
                          "its ellipsoids are degenerate. Drop or fix those parameters first.")
-    return b.center, b.half_width, b
+    origin, scale = P.box_frame()
+    return origin, scale, (b.lo - origin) / scale, (b.hi - origin) / scale, b
 
 
-def _halfspaces_z(P: Polytope, cb, hb):
-    """Every side of every constraint of P as g^T z <= h in box coordinates theta = cb + hb z,
-    unit-norm g; also the strip index owning each side (-1 for the prior)."""
-    A, lo, up, strip = P.as_ranged_rows()
-    As = A * hb
-    off = A @ cb
-    G, h, owner = [], [], []
-    for sgn, bound in ((1.0, up), (-1.0, lo)):
-        fin = np.isfinite(bound)
-        G.append(sgn * As[fin])
-        h.append(sgn * (bound[fin] - off[fin]))
-        owner.append(strip[fin])
-    G, h, owner = np.vstack(G), np.concatenate(h), np.concatenate(owner)
-    nrm = np.linalg.norm(G, axis=1)
-    nz = nrm > 0
-    return G[nz] / nrm[nz, None], h[nz] / nrm[nz], owner[nz]
+def _halfspaces_z(P: Polytope, origin, scale):
+    """Every side of every strip and halfspace of P as g^T z <= h in the frame theta = origin +
+    scale z, unit-norm g; also the strip index owning each side (-1 for a halfspace)."""
+    G, c, h = P._unit_strips(origin, scale)
+    fin = np.isfinite(h)
+    idx = np.flatnonzero(fin)
+    Gs, hs, owner = [G[fin], -G[fin]], [c[fin] + h[fin], h[fin] - c[fin]], [idx, idx]
+    if P.halfspaces is not None:
+        H, hv = P.halfspaces
+        Hs = H * scale
+        nrm = np.linalg.norm(Hs, axis=1)
+        Gs.append(Hs / nrm[:, None])
+        hs.append((hv - H @ origin) / nrm)
+        owner.append(np.full(len(hv), -1))
+    return np.vstack(Gs), np.concatenate(hs), np.concatenate(owner)
 
 
-def _known_vertices(P: Polytope, b) -> np.ndarray:
-    """Points of P to verify outer ellipsoids on: all vertices for p <= 6, else the LP-bound ones."""
-    V = b.vertices()
+def _known_vertices(P: Polytope) -> np.ndarray:
+    """Points of P to verify outer ellipsoids on: every vertex for p <= 6; always the LP-bound
+    vertices and every vertex any LP on P has produced (supports, tightening)."""
+    V = np.vstack([P.bounds().vertices(), P.found_points()])
     if P.dim <= MAX_VERTEX_DIM:
         V = np.vstack([V, P.vertices()])
     return V
@@ -114,30 +127,35 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     """Maximum-volume ellipsoid inscribed in P (exact, convex; REFERENCES §3).
 
     E = {x0 + B u : |u| <= 1}: maximise log det B s.t. |B g_i| + g_i^T x0 <= h_i for every side
-    of every strip, box side and halfspace; solved by constraint generation over the sides (a
-    working set seeded with the sides active at the LP-bound vertices plus the implied bounding
-    box; the most violated sides added after each solve) so N = 1e5 rows work. The answer is
-    shrunk about x0 so that it lies inside P exactly (the solver may leave it ~1e-9 outside).
-    ``strips`` of the result: the strips whose sides were in the final working set.
+    of every strip and halfspace, and the LP bounding box (implied by P); solved in the box
+    frame of P by constraint generation over the sides (a working set seeded with the sides
+    active at the LP-bound vertices; the most violated sides added after each solve) so N = 1e5
+    rows work. The answer is shrunk about x0 so that it lies inside P exactly (the solver may
+    leave it ~1e-9 outside). ``strips`` of the result: the strips whose sides were in the final
+    working set. The result is cached on P (john_outer reuses it).
     """
+    key = ("inner", allow_fallback, batch)
+    if key in P._sdp_cache:
+        return P._sdp_cache[key]
     t0 = time.perf_counter()
-    cb, hb, b = _box_frame(P)
+    origin, scale, zlo, zhi, b = _frame(P)
     n = P.dim
-    G, h, owner = _halfspaces_z(P, cb, hb)
-    # seed: sides active at the 2p LP optima (they certify the bounding box) + the box itself
-    Vz = (b.vertices() - cb) / hb
+    G, h, owner = _halfspaces_z(P, origin, scale)
+    # seed: sides active at the points of P the LPs found (the 2p LP optima certify the bounding
+    # box; the supports of outer_ellipsoid, when it ran first, outline P) + the box itself
+    Vz = (np.vstack([b.vertices(), P.found_points()]) - origin) / scale
     act = np.flatnonzero(np.any(Vz @ G.T >= h - 1e-7 * (1 + np.abs(h)), axis=0))
-    Gb = np.vstack([np.eye(n), -np.eye(n)])
+    Gb, hbox = np.vstack([np.eye(n), -np.eye(n)]), np.concatenate([zhi, -zlo])
     ws = np.zeros(len(h), dtype=bool)
     ws[act] = True
     rounds, solver, status = 0, "", ""
     while True:
         rounds += 1
-        Gw, hw = np.vstack([G[ws], Gb]), np.concatenate([h[ws], np.ones(2 * n)])
+        Gw, hw = np.vstack([G[ws], Gb]), np.concatenate([h[ws], hbox])
         B = cp.Variable((n, n), PSD=True)
         x0 = cp.Variable(n)
         prob = cp.Problem(cp.Maximize(cp.log_det(B)), [cp.norm(Gw @ B, 2, axis=1) + Gw @ x0 <= hw])
-        solver, status = _solve(prob, allow_fallback, "inner_ellipsoid")
+        solver, status = _solve(prob, allow_fallback, "inner_ellipsoid", study_scale=True)
         Bv, xv = 0.5 * (B.value + B.value.T), x0.value
         viol = (np.linalg.norm(G @ Bv, axis=1) + G @ xv - h) / (1 + np.abs(h))
         new = np.flatnonzero((viol > 1e-7) & ~ws)
@@ -147,27 +165,33 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
             new = new[np.argsort(viol[new])[-batch:]]
         ws[new] = True
     # exact containment: shrink B about x0 until every side holds (x0 must be interior)
-    slack = h - G @ xv
+    Ga, ha = np.vstack([G, Gb]), np.concatenate([h, hbox])
+    slack = ha - Ga @ xv
     if np.any(slack <= 0):
         raise SolverError(f"inner_ellipsoid: the computed centre lies outside P ({solver}, {status}).")
-    reach = np.linalg.norm(G @ Bv, axis=1)
+    reach = np.linalg.norm(Ga @ Bv, axis=1)
     s = min(1.0, float(np.min(slack[reach > 0] / reach[reach > 0])))
     if s < 1 - 1e-4:
         raise SolverError(f"inner_ellipsoid: inaccurate solve ({solver}, {status}); the ellipsoid left P "
                           f"by a factor {1 / s:.3g}.")
     Bv = s * Bv
-    ell = Ellipsoid(cb + hb * xv, (hb[:, None] * (Bv @ Bv)) * hb[None, :])
+    ell = Ellipsoid(origin + scale * xv, (scale[:, None] * (Bv @ Bv)) * scale[None, :])
     strips = np.unique(owner[ws][owner[ws] >= 0])
-    return SDPResult(ell, status, time.perf_counter() - t0, strips, solver,
-                     {"rounds": rounds, "working_sides": int(ws.sum()), "shrink": s})
+    res = SDPResult(ell, status, time.perf_counter() - t0, strips, solver,
+                    {"rounds": rounds, "working_sides": int(ws.sum()), "shrink": s})
+    P._sdp_cache[key] = res
+    return res
 
 
-def _s_procedure(Gs, mid, half, extra, allow_fallback: bool, what: str):
+def _s_procedure(Gs, mid, half, extra, allow_fallback: bool, what: str, study_scale: bool = False):
     """Minimum-volume ellipsoid containing ∩_i {|g_i^T z - mid_i| <= half_i} ∩ (extra quadrics)
     by the S-procedure LMI (Boyd et al. 1994 §3.7.2; REFERENCES §3).
 
     Quadrics q(z) = z^T A z + 2 b^T z + c <= 0: a strip is (g g^T, -mid g, mid^2 - half^2);
-    ``extra`` is a list of (A, b, c). Returns (A0, b0, tau, solver, status) in z coordinates.
+    ``extra`` is a list of (A, b, c). Returns (A0, b0, tau, sig, solver, status, Zd) in z
+    coordinates, Zd the (n+1) x (n+1) leading block of the LMI's dual matrix: adding a strip
+    with quadric matrix Q = [[A, b], [b^T, c]] can enlarge log det A0 only if tr(Zd Q) > 0
+    (its multiplier's reduced cost; Zd / Zd[n, n] holds pseudo-moments [[E zz^T, E z], [E z^T, 1]]).
     """
     n = Gs.shape[1] if Gs.size else extra[0][0].shape[0]
     m = Gs.shape[0]
@@ -188,11 +212,13 @@ def _s_procedure(Gs, mid, half, extra, allow_fallback: bool, what: str):
     M = cp.bmat([[A0 - SA, b0 - Sb, Z],
                  [(b0 - Sb).T, cp.reshape(-1 - Sc, (1, 1), order="F"), b0.T],
                  [Z, b0, -A0]])
-    prob = cp.Problem(cp.Maximize(cp.log_det(A0)), [0.5 * (M + M.T) << 0])
-    solver, status = _solve(prob, allow_fallback, what)
+    lmi = 0.5 * (M + M.T) << 0
+    prob = cp.Problem(cp.Maximize(cp.log_det(A0)), [lmi])
+    solver, status = _solve(prob, allow_fallback, what, study_scale)
     tau_v = np.clip(tau.value, 0, None) if m else np.zeros(0)
     sig_v = np.clip(sig.value, 0, None) if extra else np.zeros(0)
-    return 0.5 * (A0.value + A0.value.T), b0.value.ravel(), tau_v, sig_v, solver, status
+    Zd = lmi.dual_value[: n + 1, : n + 1] if lmi.dual_value is not None else None
+    return 0.5 * (A0.value + A0.value.T), b0.value.ravel(), tau_v, sig_v, solver, status, Zd
 
 
 def _certified(A0, b0, Gs, mid, half, tau, extra, sig, r2_bound: float, what: str):
@@ -224,47 +250,236 @@ def _certified(A0, b0, Gs, mid, half, tau, extra, sig, r2_bound: float, what: st
     return center, k2 * (Linv.T @ Linv), mu
 
 
-def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False) -> SDPResult:
-    """An ellipsoid guaranteed to contain P, by the S-procedure on tightened strips (REFERENCES §3).
+def _reduced_costs(Zd, G, lo, hi):
+    """tr(Zd Q_k) / Zd[n, n] for the strips lo_k <= g_k^T z <= hi_k (Q_k of (g^T z - lo)(g^T z - hi)):
+    Var_k + (mean_k - lo_k)(mean_k - hi_k) under the pseudo-moments of Zd (> 0: the strip helps)."""
+    n = G.shape[1]
+    zeta = Zd[n, n]
+    mean = G @ Zd[:n, n] / zeta
+    second = np.einsum("ij,jk,ik->i", G, Zd[:n, :n], G) / zeta
+    return second - mean**2 + (mean - lo) * (mean - hi), second - mean**2, mean
 
-    Uses ``strips`` (default: ``P.nonredundant()``), each tightened to the exact extent of P
-    along its normal, plus the LP bounding box of P and the halfspace priors tightened likewise
-    (all of them contain P, so any subset gives a valid outer ellipsoid). The S-procedure
-    certificate is checked with the solver's multipliers and the ellipsoid enlarged by its
-    residual (at most 1e-4 in squared radius, else SolverError); then every known vertex of P
-    (all vertices for p <= 6, the 2p LP-bound vertices always) is checked to lie inside.
+
+def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, price_tol: float = 1e-6,
+                    batch: int = 64, max_rounds: int = 30) -> SDPResult:
+    """An ellipsoid guaranteed to contain P: the S-procedure on the strips of P each tightened to
+    the exact extent of P along its normal, plus the LP bounding box and the halfspace priors
+    tightened likewise (REFERENCES §3); every such slab contains P, so any subset of them gives
+    a valid outer ellipsoid, and more slabs give a smaller one.
+
+    ``strips`` (default: every strip of P) is the pool. The S-procedure is solved by column
+    generation on a working set of tightened strips: after each SDP the dual of its LMI prices
+    every pool strip (:func:`_reduced_costs`). A strip whose exact extent is unknown is priced
+    with the interval spanned by the points of P found so far, which can only overstate its
+    reduced cost (the true extent is wider); the candidates are then tightened exactly by LP
+    (batched supports, which also add points) and priced again. It stops when no pool strip
+    has a reduced cost above ``price_tol`` (in the box frame's squared units): the ellipsoid
+    is then the S-procedure optimum over the whole tightened pool, found with a few dozen
+    strips in the SDP instead of every non-redundant one. ``info["max_reduced_cost"]`` records
+    the largest remaining reduced cost (<= price_tol unless ``max_rounds`` was reached).
+
+    Verification: the S-procedure certificate is checked with the solver's multipliers and the
+    ellipsoid enlarged by its residual (at most 1e-4 in squared radius, else SolverError); the
+    tightened slabs are widened by the LP tolerance so they contain P exactly; then every known
+    point of P (all vertices for p <= 6; the LP-bound vertices and every vertex the supports
+    produced) is checked to lie inside.
     """
     t0 = time.perf_counter()
-    cb, hb, b = _box_frame(P)
+    origin, scale, zlo, zhi, b = _frame(P)
     n = P.dim
-    strips = P.nonredundant() if strips is None else np.unique(np.asarray(strips, dtype=int))
-    if strips.size and (strips.min() < 0 or strips.max() >= P.n_strips):
+    pool = np.arange(P.n_strips) if strips is None else np.unique(np.asarray(strips, dtype=int))
+    if pool.size and (pool.min() < 0 or pool.max() >= P.n_strips):
         raise InputError(f"strips must be indices in [0, {P.n_strips}).")
-    rows = []
-    if strips.size:
-        T = P.tightened(strips)
-        rows.append((T.W, T.y, T.e_max))
+    G, c, h = P._unit_strips(origin, scale)
+    # the interval of g_k^T z spanned by the points of P found so far (inside the true extent)
+    lin, uin = np.full(P.n_strips, np.inf), np.full(P.n_strips, -np.inf)
+    exact_lo, exact_hi = np.full(P.n_strips, np.nan), np.full(P.n_strips, np.nan)
+    n_lp = 0
+
+    def add_points(theta):
+        if len(theta):
+            proj = G @ ((np.asarray(theta).reshape(-1, n) - origin) / scale).T
+            np.minimum(lin, proj.min(axis=1), out=lin)
+            np.maximum(uin, proj.max(axis=1), out=uin)
+
+    add_points(b.vertices())
+    add_points(P.found_points())
+    if n <= MAX_VERTEX_DIM:
+        add_points(P.vertices())
+
+    def new_points(before):
+        nonlocal n_lp
+        n_lp += len(P._found) - before
+        add_points(P._found[before:])
+
+    def tighten(rows):
+        rows = rows[np.isnan(exact_lo[rows])]
+        if rows.size == 0:
+            return
+        before = len(P._found)
+        lz, uz = P._strip_extents(rows)
+        new_points(before)
+        exact_lo[rows], exact_hi[rows] = lz - LP_TOL, uz + LP_TOL
+
+    # fixed rows: the LP box and the halfspace priors, tightened
+    fixed_G, fixed_lo, fixed_hi = [np.eye(n)], [zlo - LP_TOL], [zhi + LP_TOL]
     if P.halfspaces is not None:
-        H = P.halfspaces[0]
-        ext = np.array([P.extent(a) for a in H])
-        rows.append((H, ext.mean(axis=1), np.maximum(0.5 * (ext[:, 1] - ext[:, 0]), 1e-12 * np.abs(ext).max())))
-    Gs, mid, half = [np.eye(n)], [np.zeros(n)], [np.ones(n)]      # the LP box: |z_j| <= 1
-    for Wr, yr, er in rows:
-        g = Wr * hb
-        nrm = np.linalg.norm(g, axis=1)
-        Gs.append(g / nrm[:, None])
-        mid.append((yr - Wr @ cb) / nrm)
-        half.append(er / nrm)
-    Gs, mid, half = np.vstack(Gs), np.concatenate(mid), np.concatenate(half)
-    A0, b0, tau, sig, solver, status = _s_procedure(Gs, mid, half, [], allow_fallback, "outer_ellipsoid")
-    cz, Sz, mu = _certified(A0, b0, Gs, mid, half, tau, [], sig, float(n), "outer_ellipsoid")
-    ell = Ellipsoid(cb + hb * cz, (hb[:, None] * Sz) * hb[None, :])
-    V = _known_vertices(P, b)
-    if not np.all(ell.contains(V)):
-        raise SolverError(f"outer_ellipsoid: verification failed, {int(np.sum(~ell.contains(V)))} vertices of P "
+        H = P.halfspaces[0] * scale
+        Hn = H / np.linalg.norm(H, axis=1)[:, None]
+        for g in Hn:
+            lo_, hi_ = P.extent(g / scale)
+            fixed_G.append(g[None, :])
+            fixed_lo.append([(lo_ - g @ (origin / scale)) - LP_TOL])
+            fixed_hi.append([(hi_ - g @ (origin / scale)) + LP_TOL])
+    fixed_G, fixed_lo, fixed_hi = np.vstack(fixed_G), np.concatenate(fixed_lo), np.concatenate(fixed_hi)
+    # initial working set: pool strips active at the LP-bound vertices
+    pool_fin = pool[np.isfinite(h[pool])]
+    Vz = (b.vertices() - origin) / scale
+    act = pool_fin[np.any(np.abs(Vz @ G[pool_fin].T - c[pool_fin]) >= h[pool_fin] - 1e-7, axis=0)]
+    tighten(act)
+    ws = list(act)
+    in_ws = np.zeros(P.n_strips, dtype=bool)
+    in_ws[act] = True
+    rounds, max_rc, solver, status = 0, np.inf, "", ""
+    while True:
+        rounds += 1
+        k = np.array(ws, dtype=int)
+        Gs = np.vstack([fixed_G, G[k]])
+        lo = np.concatenate([fixed_lo, exact_lo[k]])
+        hi = np.concatenate([fixed_hi, exact_hi[k]])
+        mid, half = 0.5 * (lo + hi), np.maximum(0.5 * (hi - lo), 0.0)
+        A0, b0, tau, sig, solver, status, Zd = _s_procedure(Gs, mid, half, [], allow_fallback, "outer_ellipsoid",
+                                                            study_scale=True)
+        if Zd is None or rounds >= max_rounds:
+            break
+        if rounds == 1:
+            # points of P along the principal axes of the dual's pseudo-covariance
+            zeta = Zd[n, n]
+            cov = Zd[:n, :n] / zeta - np.outer(Zd[:n, n], Zd[:n, n]) / zeta**2
+            axes = np.linalg.eigh(0.5 * (cov + cov.T))[1].T
+            before = len(P._found)
+            for d in np.vstack([axes, -axes]):
+                P.support_point(d / scale)
+            new_points(before)
+        added = 0
+        cand_pool = pool_fin[~in_ws[pool_fin]]
+        Gp = G[cand_pool]
+        while cand_pool.size:
+            ex = ~np.isnan(exact_lo[cand_pool])
+            lo_c = np.where(ex, exact_lo[cand_pool], lin[cand_pool])
+            hi_c = np.where(ex, exact_hi[cand_pool], uin[cand_pool])
+            rc = _reduced_costs(Zd, Gp, lo_c, hi_c)[0]
+            cand = np.flatnonzero((rc > price_tol) & ~ex)
+            max_rc = float(rc.max()) if rc.size else -np.inf
+            add = np.flatnonzero(ex & (rc > price_tol))
+            if add.size:
+                for i in add:
+                    ws.append(cand_pool[i])
+                    in_ws[cand_pool[i]] = True
+                added += add.size
+                break
+            if cand.size == 0:
+                break
+            top = cand[np.argsort(rc[cand])[::-1][:batch]]
+            tighten(cand_pool[top])
+        if added == 0:
+            break
+    # certificate with the final multipliers, then every known point of P
+    cz, Sz, mu = _certified(A0, b0, Gs, mid, half, tau, [], sig, float(np.max(np.sum(
+        np.maximum(np.abs(zlo), np.abs(zhi)) ** 2))), "outer_ellipsoid")
+    ell = Ellipsoid(origin + scale * cz, (scale[:, None] * Sz) * scale[None, :])
+    V = _known_vertices(P)
+    inside = ell.contains(V)
+    if not np.all(inside):
+        raise SolverError(f"outer_ellipsoid: verification failed, {int(np.sum(~inside))} known points of P "
                           f"lie outside the certified ellipsoid ({solver}, {status}).")
-    return SDPResult(ell, status, time.perf_counter() - t0, strips, solver,
-                     {"certificate_residual": mu, "n_constraints": len(mid), "vertices_checked": len(V)})
+    used = np.array(ws, dtype=int)
+    return SDPResult(ell, status, time.perf_counter() - t0, np.sort(used), solver,
+                     {"certificate_residual": mu, "n_constraints": len(mid), "vertices_checked": len(V),
+                      "rounds": rounds, "strips_tightened": int(np.sum(~np.isnan(exact_lo))),
+                      "support_lps": n_lp, "max_reduced_cost": max_rc, "price_tol": price_tol,
+                      "pool": int(pool.size)})
+
+
+@dataclass(frozen=True)
+class VolumeBracket:
+    """ln vol of the minimum-volume ellipsoid containing P, bracketed (issue 16 item 6).
+
+    lower : a lower bound on ln vol of every ellipsoid containing P: the dual bound of the
+        minimum-volume ellipsoid around points of P (:func:`boundid.sets._mvee.mvee_dual`); any ellipsoid
+        containing P contains those points, so none is smaller.
+    upper : ln vol of the S-procedure outer ellipsoid (it contains P).
+    points_ellipsoid : an ellipsoid around the points, within ``points_gap`` (ln vol) of their
+        minimum-volume one (it need not contain P).
+    upper_result : the SDPResult of the S-procedure ellipsoid.
+    n_points : points of P used (LP-bound vertices, support points, vertices for p <= 6).
+    info : rounds, iterations, time_s.
+    """
+
+    lower: float
+    upper: float
+    points_ellipsoid: Ellipsoid
+    points_gap: float
+    upper_result: SDPResult
+    n_points: int
+    info: dict = field(default_factory=dict)
+
+    @property
+    def gap_per_axis(self) -> float:
+        """(upper - lower) / p: how far the S-procedure may be above the optimum, per axis."""
+        return (self.upper - self.lower) / self.points_ellipsoid.dim
+
+
+def min_volume_bracket(P: Polytope, n_directions: int | None = None, rounds: int = 10, seed: int = 0,
+                       vertices: bool = True, allow_fallback: bool = False) -> VolumeBracket:
+    """Bracket ln vol of the minimum-volume ellipsoid containing P: [lower, upper].
+
+    upper: :func:`outer_ellipsoid`. lower: the dual bound of the minimum-volume ellipsoid around
+    points of P found by LP (:func:`boundid.sets._mvee.mvee_dual`): the LP-bound vertices, every point the LPs on
+    P have produced, and the supports of P along ``n_directions`` (default 20 p) random
+    directions of the box frame (seeded: same seed, same numbers) and the principal axes of the
+    upper ellipsoid. Then up to ``rounds`` refinements: along the outward normal of the points'
+    ellipsoid at each point on (or near) its boundary, the farthest point of P is added if it
+    lies outside (an active-set search for the points that matter), until none does. The lower
+    bound is valid after any number of rounds. ``vertices``: for p <= 6 also every vertex of P
+    (Qhull), which makes the lower end the exact optimum (to the stopping tolerance 1e-7 per axis).
+    """
+    t0 = time.perf_counter()
+    upper = outer_ellipsoid(P, allow_fallback=allow_fallback)
+    origin, scale, _, _, b = _frame(P)
+    n = P.dim
+    n_directions = 20 * n if n_directions is None else int(n_directions)
+    rng = np.random.default_rng(seed)
+    axes = np.linalg.eigh((upper.ellipsoid.shape / scale[:, None]) / scale[None, :])[1].T
+    _, X = P.support_points(np.vstack([rng.normal(size=(n_directions, n)), axes, -axes]) / scale)
+    pts = np.vstack([b.vertices(), P.found_points(), X])
+    if vertices and n <= MAX_VERTEX_DIM:
+        pts = np.vstack([pts, P.vertices()])
+    Z = np.unique((pts - origin) / scale, axis=0)
+    iters = rnd = 0
+    u = None
+    for rnd in range(rounds + 1):
+        lower, up_pts, c, S, it, u = mvee_dual(Z, u0=u)
+        iters += it
+        if rnd == rounds:
+            break
+        # outward normals of the points' ellipsoid at the points near its boundary
+        Si = np.linalg.inv(S)
+        Zc = Z - c
+        near = np.einsum("ij,jk,ik->i", Zc, Si, Zc) >= 1 - 1e-3
+        _, Xn = P.support_points((Zc[near] @ Si) / scale)
+        Zn = (Xn - origin) / scale
+        Znc = Zn - c
+        out = Zn[np.einsum("ij,jk,ik->i", Znc, Si, Znc) > 1 + 1e-9]
+        if out.size == 0:
+            break
+        # warm start: the new points join with a small weight (all weights stay positive)
+        Z = np.vstack([Z, np.unique(out, axis=0)])
+        u = np.concatenate([u, np.full(len(Z) - len(u), 1e-3 / len(Z))])
+    shift = float(np.sum(np.log(scale)))
+    ell = Ellipsoid(origin + scale * c, (scale[:, None] * S) * scale[None, :])
+    return VolumeBracket(lower + shift, float(upper.ellipsoid.log_volume()), ell, up_pts - lower, upper, len(Z),
+                         {"rounds": rnd, "iterations": iters, "time_s": time.perf_counter() - t0})
 
 
 def john_outer(P: Polytope, allow_fallback: bool = False) -> SDPResult:
@@ -278,7 +493,7 @@ def john_outer(P: Polytope, allow_fallback: bool = False) -> SDPResult:
     t0 = time.perf_counter()
     inner = inner_ellipsoid(P, allow_fallback=allow_fallback)
     ell = inner.ellipsoid.scaled(P.dim)
-    V = _known_vertices(P, P.bounds())
+    V = _known_vertices(P)
     d2 = float(np.max(ell.mahalanobis2(V)))
     if d2 > 1 + _MAX_REPAIR:
         raise SolverError(f"john_outer: a vertex of P lies outside p x the inner ellipsoid (squared "
@@ -381,7 +596,7 @@ def step_ellipsoid(E: Ellipsoid, w, y: float, e_max: float, allow_fallback: bool
         return SDPResult(E, "no_cut", time.perf_counter() - t0, np.zeros(0, dtype=int), "", {})
     mid, half = np.array([0.5 * (lo + hi)]), np.array([0.5 * (hi - lo)])
     ball = (np.eye(n), np.zeros(n), -1.0)
-    A0, b0, tau, sig, solver, status = _s_procedure(u[None, :], mid, half, [ball], allow_fallback,
+    A0, b0, tau, sig, solver, status, _ = _s_procedure(u[None, :], mid, half, [ball], allow_fallback,
                                                     "step_ellipsoid")
     cz, Sz, mu = _certified(A0, b0, u[None, :], mid, half, tau, [ball], sig, 1.0, "step_ellipsoid")
     ell = Ellipsoid(E.center + L @ cz, L @ Sz @ L.T)
