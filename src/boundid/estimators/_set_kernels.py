@@ -33,18 +33,20 @@ OUTLIER, NO_INFO, UPDATE = 0, 1, 2
 
 @njit(cache=True)
 def clip_strip(y, s, m, r, wc):
-    """Guard and clip the strip |y - w^T x| <= s to the set's extent [m - r, m + r] along w.
+    """Guard and clip the strip |y - w^T x| <= s to the set's extent [m - r, m + r] along w
+    (both widened by the rounding guard g, so that a point on the set's face stays inside).
 
     Returns (status, yc, sc): OUTLIER if the strip misses the set, NO_INFO if it contains it,
     else UPDATE with the clipped strip |yc - w^T x| <= sc."""
-    s = s + ROUND_GUARD * (abs(y) + s + wc + r)
+    g = ROUND_GUARD * (abs(y) + s + wc + r)
+    s = s + g
     eps = y - m
     if abs(eps) > s + r:
         return OUTLIER, 0.0, 0.0
     if abs(eps) + r <= s:
         return NO_INFO, 0.0, 0.0
-    lo = max(y - s, m - r)
-    hi = min(y + s, m + r)
+    lo = max(y - s, m - r - g)
+    hi = min(y + s, m + r + g)
     return UPDATE, 0.5 * (lo + hi), max(0.5 * (hi - lo), KAPPA * max(r, s))
 
 
@@ -274,7 +276,8 @@ def _segments(Gt, n):
 @njit(cache=True)
 def run_zonotope(c, Gt, state, W, Y, E, max_generators, stop_on_outlier, k0, record_every, hist_idx, hist_c,
                  hist_lv, out_idx, out_res, counts):
-    """Zonotope recursion ([AlamoBravoCamacho2005], [Combastel2003]), O(p m^2) per update.
+    """Zonotope recursion ([AlamoBravoCamacho2005], [Combastel2003]): O(p m^2) per update (the
+    Gram matrix), O(p m + m^2) per strip that leaves Z unchanged.
 
     Z = c + G B^n with Gt (max_generators + 1, p) holding the n generators as rows,
     state = [n]. With v = G^T w and the clipped strip (yc, sc), every member
@@ -295,6 +298,7 @@ def run_zonotope(c, Gt, state, W, Y, E, max_generators, stop_on_outlier, k0, rec
     Q = np.empty((rows, rows))
     cand = np.empty_like(Gt)
     red = np.empty_like(Gt)
+    gram_ok = False  # Q is recomputed only after the generators change
     n_upd = n_skip = n_out = n_rec = 0
     processed = N
     countdown = record_every - k0 % record_every
@@ -325,13 +329,15 @@ def run_zonotope(c, Gt, state, W, Y, E, max_generators, stop_on_outlier, k0, rec
             n_skip += 1
         else:
             innov = yc - m
-            for k in range(n):
-                for l in range(k, n):
-                    s = 0.0
-                    for a in range(p):
-                        s += Gt[k, a] * Gt[l, a]
-                    Q[k, l] = s
-                    Q[l, k] = s
+            if not gram_ok:
+                for k in range(n):
+                    for l in range(k, n):
+                        s = 0.0
+                        for a in range(p):
+                            s += Gt[k, a] * Gt[l, a]
+                        Q[k, l] = s
+                        Q[l, k] = s
+                gram_ok = True
             best = 0.0
             for k in range(n):
                 best += math.sqrt(Q[k, k])
@@ -369,12 +375,14 @@ def run_zonotope(c, Gt, state, W, Y, E, max_generators, stop_on_outlier, k0, rec
                 n_skip += 1
             elif choice == -1:
                 n_upd += 1
+                gram_ok = False
                 for a in range(p):
                     c[a] += lam[a] * innov
                 Gt[:n_red, :] = red[:n_red, :]
                 n = n_red
             else:
                 n_upd += 1
+                gram_ok = False
                 vj = v[choice]
                 f = innov / vj
                 for a in range(p):

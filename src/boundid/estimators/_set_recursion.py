@@ -24,13 +24,14 @@ from boundid.sets.box import Box
 def clip_strip(y: float, s: float, m: float, r: float, wc: float) -> tuple[int, float, float]:
     """Plain-Python statement of the guard and clipping every step starts with
     (``_set_kernels.clip_strip``): returns (status, yc, sc), status OUTLIER / NO_INFO / UPDATE."""
-    s = s + ROUND_GUARD * (abs(y) + s + wc + r)
+    g = ROUND_GUARD * (abs(y) + s + wc + r)
+    s = s + g
     eps = y - m
     if abs(eps) > s + r:
         return OUTLIER, 0.0, 0.0
     if abs(eps) + r <= s:
         return NO_INFO, 0.0, 0.0
-    lo, hi = max(y - s, m - r), min(y + s, m + r)
+    lo, hi = max(y - s, m - r - g), min(y + s, m + r + g)
     return UPDATE, 0.5 * (lo + hi), max(0.5 * (hi - lo), KAPPA * max(r, s))
 
 

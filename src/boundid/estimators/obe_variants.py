@@ -82,7 +82,7 @@ class _OBEVariant(SetRecursion):
 
 class BoxedOBE(_OBEVariant):
     """OBE with the prior box as p extra strips, before the first sample and every ``box_every``
-    samples (default 10 p): the ellipsoid encloses E ∩ prior box at those steps.
+    samples (default 100 p): the ellipsoid encloses E ∩ prior box at those steps.
 
     Parameters: ``box_every`` and those of :class:`~boundid.estimators._set_recursion.SetRecursion`
     (p, prior box ``center0 +- half_widths0``, ``on_outlier``, ``record_every``, ``names``).
@@ -95,7 +95,7 @@ class BoxedOBE(_OBEVariant):
         if box_every is not None and not (isinstance(box_every, int | np.integer) and box_every >= 1):
             raise InputError(f"box_every must be a positive integer, got {box_every!r}.")
         super().__init__(p, **kwargs)
-        self.box_every = int(box_every) if box_every is not None else 10 * self.p
+        self.box_every = int(box_every) if box_every is not None else 100 * self.p
 
     def _run(self, W, y, e, k0) -> Run:
         N = W.shape[0]

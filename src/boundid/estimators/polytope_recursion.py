@@ -53,7 +53,8 @@ class DoubleDescription:
 
         Vertices with |a^T v - beta| <= tol count as on the plane (kept, incident to the new
         facet); tol = 1e-11 times the polytope's extent along a. Each pair (inside vertex,
-        outside vertex) that is adjacent gives a new vertex where its edge crosses the plane.
+        outside vertex) that is adjacent gives a new vertex where its edge crosses the plane
+        (:meth:`_vertex`).
         Adjacency test (combinatorial, valid with degenerate vertices): the facets the two share
         are at least p - 1 and no third vertex lies on all of them. Facets left with fewer than
         p vertices are dropped (no longer facets).
@@ -74,8 +75,7 @@ class DoubleDescription:
             common = self.inc[i] & self.inc[o]
             if np.count_nonzero(inc[:, common].sum(axis=1) == common.sum()) != 2:
                 continue
-            t = s[i] / (s[i] - s[o])
-            new_V.append(self.V[i] + t * (self.V[o] - self.V[i]))
+            new_V.append(self._vertex(common, a, beta, self.V[i], self.V[o], s[i], s[o]))
             new_inc.append(common)
         keep = ~out
         on = keep & ~inn
@@ -89,6 +89,18 @@ class DoubleDescription:
         self.b = np.append(self.b, beta)[facet]
         self.inc = inc_all[:, facet]
         return int(out.sum())
+
+    def _vertex(self, common, a, beta, vi, vo, si, so) -> np.ndarray:
+        """The new vertex on edge (vi, vo): the solution of its facets' equations, A_F x = b_F
+        (F = the edge's facets and the new one), so that rounding does not accumulate from
+        vertex to vertex; the edge interpolation vi + si / (si - so) (vo - vi) if those
+        equations are rank deficient in floating point."""
+        AF = np.vstack([self.A[common], a])
+        bF = np.append(self.b[common], beta)
+        x, _, rank, sv = np.linalg.lstsq(AF, bF, rcond=None)
+        if rank == self.dim and sv[-1] > 1e-10 * sv[0]:
+            return x
+        return vi + si / (si - so) * (vo - vi)
 
     def to_set(self) -> VertexPolytope:
         return VertexPolytope(self.V, facets=(self.A, self.b))
@@ -187,8 +199,9 @@ class LimitedPolytopeRecursion(SetRecursion):
     ----------
     max_strips : int, default 4p
         K, the most strips kept between blocks.
-    block : int, default 10p
-        Samples per LP block.
+    block : int, default 100p
+        Samples per LP block. Each block builds a new LP, so larger blocks cost less per sample;
+        reports/benchmarks/families.md measures the defaults against the batch LP.
 
     Other parameters: see :class:`~boundid.estimators._set_recursion.SetRecursion`; the history
     has one record per block (``record_every`` is not used) and NaN ln volumes. The set is a
@@ -203,7 +216,7 @@ class LimitedPolytopeRecursion(SetRecursion):
         self.block = int(block) if block is not None else None
         super().__init__(p, **kwargs)
         self.max_strips = self.max_strips or 4 * self.p
-        self.block = self.block or 10 * self.p
+        self.block = self.block or 100 * self.p
 
     @property
     def method(self) -> str:

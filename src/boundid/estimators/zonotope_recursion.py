@@ -25,7 +25,8 @@ determinants, too costly per step.)
 Order limit: at most ``order * p`` generators (default order 2: 2p). The [Combastel2003]
 reduction keeps the order * p - p largest (Euclidean norm) and replaces the others by the box of
 their sum (p axis generators). Cost O(p m^2) per update (the Gram matrix of the generators for
-the segment lengths), m <= order * p; (order * p + 1) p + p numbers stored.
+the segment lengths), O(p m + m^2) per cutting strip that leaves Z as it is, m <= order * p;
+(order * p + 1) p + p numbers stored.
 
 The compiled loop is ``_set_kernels.run_zonotope``; :func:`zonotope_step` is the same step in
 plain numpy (the reference of the tests and benchmarks).
@@ -81,6 +82,8 @@ class ZonotopeRecursion(SetRecursion):
     Other parameters: see :class:`~boundid.estimators._set_recursion.SetRecursion` (p, prior box
     ``center0 +- half_widths0``, ``on_outlier``, ``record_every``, ``names``). Starts from the
     prior box (p axis generators). Cost O(p m^2) per update, m <= order * p generators.
+    ``info["n_updates"]`` counts the steps that changed Z; a strip that cuts Z but whose
+    candidates are all longer than Z leaves it unchanged and counts as skipped.
     The history's ln volumes are NaN; ``Zonotope.log_volume`` is exact when C(m, p) is small.
     """
 

@@ -61,7 +61,7 @@ class Box:
         X = np.atleast_2d(as_float_array(points, "points"))
         if X.shape[-1] != self.dim:
             raise InputError(f"points must have {self.dim} columns, got shape {X.shape}.")
-        tol = rtol * (self.hi - self.lo) + 4 * np.finfo(float).eps * np.maximum(np.abs(self.lo), np.abs(self.hi))
+        tol = rtol * (self.hi - self.lo) + 8 * np.finfo(float).eps * np.maximum(np.abs(self.lo), np.abs(self.hi))
         ok = np.all((X >= self.lo - tol) & (X <= self.hi + tol), axis=1)
         return bool(ok[0]) if np.ndim(points) == 1 else ok
 

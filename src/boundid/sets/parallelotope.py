@@ -74,8 +74,15 @@ class Parallelotope(Zonotope):
         return scipy.linalg.lu_solve(self._lu, (X - self.center).T).T
 
     def contains(self, points, rtol: float = 1e-9) -> np.ndarray | bool:
-        """|T (x - c)|_inf <= 1 + rtol (rtol is relative to P's own half-widths)."""
-        ok = np.all(np.abs(self.normalized(points)) <= 1.0 + rtol, axis=1)
+        """|T (x - c)|_inf <= 1 + rtol (rtol relative to P's own half-widths), plus the rounding
+        of the coordinates themselves, |T| 8 eps (|x| + |c| + sum_k |G_jk|) (it matters only for
+        a parallelotope that is thin next to |c| or to its own largest side, such as a feasible
+        set shrunk to a point)."""
+        X = np.atleast_2d(as_float_array(points, "points"))
+        Z = self.normalized(X)
+        T = scipy.linalg.lu_solve(self._lu, np.eye(self.dim))
+        slack = (8 * np.finfo(float).eps * (np.abs(X) + np.abs(self.center) + self.radii())) @ np.abs(T).T
+        ok = np.all(np.abs(Z) <= 1.0 + rtol + slack, axis=1)
         return bool(ok[0]) if np.ndim(points) == 1 else ok
 
     def log_volume(self) -> float:

@@ -69,13 +69,14 @@ class VertexPolytope:
         return float(np.max(self.vertices @ d))
 
     def contains(self, points, rtol: float = 1e-9) -> np.ndarray | bool:
-        """A x <= b + rtol * (the polytope's largest width), for each point."""
+        """A x <= b + rtol * (the polytope's largest width), plus the rounding of the
+        coordinates themselves (8 eps (|A| |x| + |b|)), for each point."""
         X = np.atleast_2d(as_float_array(points, "points"))
         if X.shape[-1] != self.dim:
             raise InputError(f"points must have {self.dim} columns, got shape {X.shape}.")
         lo, hi = self.intervals()
-        tol = rtol * float(np.max(hi - lo)) + 4 * np.finfo(float).eps * np.abs(self.b)
-        ok = np.all(X @ self.A.T <= self.b + tol, axis=1)
+        ulp = 8 * np.finfo(float).eps * (np.abs(X) @ np.abs(self.A).T + np.abs(self.b))
+        ok = np.all(X @ self.A.T <= self.b + rtol * float(np.max(hi - lo)) + ulp, axis=1)
         return bool(ok[0]) if np.ndim(points) == 1 else ok
 
     def log_volume(self) -> float:

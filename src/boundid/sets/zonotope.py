@@ -2,9 +2,10 @@
 
 A zonotope is the Minkowski sum of m segments [-g_k, g_k] about a centre c: centrally symmetric,
 closed under linear maps (so its shadow on a plane is a 2-D zonotope, a zonogon) and cheap to
-bound along any direction (support function d^T c + |G^T d|_1). Membership is an LP; the volume
-is a sum over the C(m, p) square submatrices of G (McMullen's formula), computed exactly when that
-sum is small and reported as NaN otherwise.
+bound along any direction (support function d^T c + |G^T d|_1). Membership is tested along the
+C(m, p - 1) facet normals (an LP when there are too many); the volume is a sum over the C(m, p)
+square submatrices of G (McMullen's formula), computed exactly when that sum is small and
+reported as NaN otherwise.
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ from boundid.sets._plane import closed, plane, require_2d
 
 #: log_volume() sums |det| over at most this many p-subsets of generators (else NaN)
 MAX_VOLUME_SUBSETS = 200_000
+#: contains() tests the facet normals of at most this many (p - 1)-subsets (else an LP)
+MAX_FACET_SUBSETS = 50_000
 
 
 def _generators(G, p: int) -> np.ndarray:
@@ -47,11 +50,12 @@ class Zonotope:
         Generator matrix G, one generator g_k per column (parameter units); m >= 0.
     """
 
-    __slots__ = ("center", "generators")
+    __slots__ = ("center", "generators", "_normals")
 
     def __init__(self, center, generators):
         self.center = as_vector(center, "center").copy()
         self.generators = np.array(_generators(generators, self.center.shape[0]), dtype=float)
+        self._normals = None
 
     @property
     def dim(self) -> int:
@@ -75,34 +79,87 @@ class Zonotope:
         return float(d @ self.center + np.abs(self.generators.T @ d).sum())
 
     def contains(self, points, rtol: float = 1e-9) -> np.ndarray | bool:
-        """Whether each point x lies in Z: is there xi with G xi = x - c and |xi|_inf <= 1 + rtol?
-        One HiGHS LP per point, rows scaled by Z's half-width along each axis (so the equality
-        tolerance, 1e-10, is relative to Z's own size)."""
+        """Whether each point lies in Z, allowing rtol of Z's half-width along each direction
+        tested and the rounding of the coordinates themselves, 8 eps (|x| + |c| + sum_k |g_k|)
+        per axis (a point of Z is c + G xi).
+
+        Exact test: x is in Z iff |n^T (x - c)| <= |G^T n|_1 along every facet normal n, the
+        normals of the hyperplanes spanned by p - 1 generators (any direction gives a valid
+        inequality, so rounding in the normals cannot exclude a point of Z). Used when G has
+        full rank and at most MAX_FACET_SUBSETS subsets; otherwise an LP (:meth:`_contains_lp`).
+        """
         X = np.atleast_2d(as_float_array(points, "points"))
         if X.shape[-1] != self.dim:
             raise InputError(f"points must have {self.dim} columns, got shape {X.shape}.")
-        r = self.radii()
-        scale = np.where(r > 0, r, 1.0)
-        G = self.generators / scale[:, None]
-        flat = r <= 0
-        tol_flat = 4 * np.finfo(float).eps * (np.abs(self.center) + 1.0)
+        D = self._facet_normals()
+        if D is None:
+            ok = self._contains_lp(X, rtol)
+        else:
+            h = np.abs(D @ self.generators).sum(axis=1)
+            ulp = 8 * np.finfo(float).eps * (np.abs(X) + np.abs(self.center) + self.radii())
+            ok = np.all(np.abs((X - self.center) @ D.T) <= h * (1 + rtol) + ulp @ np.abs(D).T, axis=1)
+        return bool(ok[0]) if np.ndim(points) == 1 else ok
+
+    def _facet_normals(self) -> np.ndarray | None:
+        """Unit normals (k, p) of the hyperplanes spanned by p - 1 of the (non-zero) generators,
+        or None when G is rank deficient or there are more than MAX_FACET_SUBSETS of them."""
+        if self._normals is None:
+            G = self.generators[:, np.any(self.generators != 0, axis=0)]
+            p, m = G.shape
+            if p == 1:
+                self._normals = np.ones((1, 1))
+            elif m < p or comb(m, p - 1) > MAX_FACET_SUBSETS or np.linalg.matrix_rank(G) < p:
+                self._normals = False
+            else:
+                subsets = np.array(list(itertools.combinations(range(m), p - 1)))
+                self._normals = np.linalg.svd(G.T[subsets])[2][:, -1, :]
+        return None if self._normals is False else self._normals
+
+    def _contains_lp(self, X: np.ndarray, rtol: float) -> np.ndarray:
+        """Membership by LP (when the facet normals are too many): t* <= 1 + rtol, where t* is the
+        least |xi|_inf over G xi + delta = x - c with |delta_j| <= 8 eps (|x_j| + |c_j| +
+        sum_k |G_jk|) (the rounding of the coordinates themselves: a point of Z is c + G xi).
+
+        One HiGHS LP per point, written in the principal frame of G (G = U S V^T; row i divided
+        by max(s_i, 1e-14 s_1)), so that its equality rows V^T xi = ... are orthonormal even for
+        a nearly flat zonotope. An infeasible LP (x - c off the span of G) means outside. The
+        solution is checked: an equality residual rho on those rows is absorbed exactly by
+        xi + V rho, so the point is inside iff t* + |rho|_2 <= 1 + rtol; on the rows of the null
+        space of G (s_i below the floor) the residual must be below 1e-9.
+        """
+        p, m = self.dim, self.n_generators
+        if m == 0 or not np.any(self.generators):
+            U, sv = np.eye(p), np.zeros(p)
+        else:
+            U, sv, _ = np.linalg.svd(self.generators, full_matrices=True)
+            sv = np.concatenate([sv, np.zeros(p - sv.size)])
+        floor = 1e-14 * max(sv[0], np.finfo(float).tiny)
+        null = sv <= floor
+        scale = 1.0 / np.maximum(sv, floor)
+        F = scale[:, None] * U.T                                   # the frame: rows u_i / s_i
+        FG = F @ self.generators
+        # variables [xi (m), delta' (p) in [-1, 1], t]: min t, F G xi + F D delta' = F dx, |xi_k| <= t
+        A_ub = np.block([[np.eye(m), np.zeros((m, p)), -np.ones((m, 1))],
+                         [-np.eye(m), np.zeros((m, p)), -np.ones((m, 1))]])
+        cost = np.zeros(m + p + 1)
+        cost[-1] = 1.0
+        bounds = [(None, None)] * m + [(-1.0, 1.0)] * p + [(0, None)]
         ok = np.empty(X.shape[0], dtype=bool)
-        bound = 1.0 + rtol
         for n, x in enumerate(X):
-            dx = x - self.center
-            if np.any(np.abs(dx[flat]) > tol_flat[flat]):
+            ulp = 8 * np.finfo(float).eps * (np.abs(x) + np.abs(self.center) + self.radii())
+            A_eq = np.hstack([FG, F * ulp, np.zeros((p, 1))])
+            b = F @ (x - self.center)
+            res = linprog(cost, A_ub=A_ub, b_ub=np.zeros(2 * m), A_eq=A_eq, b_eq=b, bounds=bounds, method="highs",
+                          options={"primal_feasibility_tolerance": 1e-10})
+            if res.status == 2:
                 ok[n] = False
                 continue
-            if self.n_generators == 0:
-                ok[n] = True
-                continue
-            res = linprog(np.zeros(self.n_generators), A_eq=G[~flat], b_eq=dx[~flat] / scale[~flat],
-                          bounds=(-bound, bound), method="highs",
-                          options={"primal_feasibility_tolerance": 1e-10, "presolve": False})
-            if res.status not in (0, 2):
-                raise SolverError(f"Zonotope.contains: HiGHS returned status {res.status} ({res.message}).")
-            ok[n] = res.status == 0
-        return bool(ok[0]) if np.ndim(points) == 1 else ok
+            rho = A_eq @ res.x - b if res.status == 0 else np.full(p, np.inf)
+            if not np.all(np.abs(rho[null]) <= 1e-9) or not np.all(np.isfinite(rho)):
+                raise SolverError(f"Zonotope.contains: HiGHS could not decide membership (status {res.status}: "
+                                  f"{res.message}).")
+            ok[n] = res.x[-1] + np.linalg.norm(rho[~null]) <= 1.0 + rtol
+        return ok
 
     def log_volume(self) -> float:
         """ln vol(Z) = p ln 2 + ln sum over p-subsets S of generators of |det G_S| (McMullen's
