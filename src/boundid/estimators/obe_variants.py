@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from boundid.errors import InfeasibleDataError, InputError, SolverError
+from boundid.estimators._set_kernels import ROUND_GUARD
 from boundid.estimators._set_recursion import Run, SetRecursion
 from boundid.estimators.obe import OBE
 from boundid.sets.ellipsoid import Ellipsoid
@@ -32,7 +33,12 @@ class _OBEVariant(SetRecursion):
     volume step depends on the ellipsoid only, so a restart changes nothing)."""
 
     def _start(self) -> None:
-        self.ellipsoid = OBE.from_prior(self.prior.center, self.prior.half_widths).ellipsoid()
+        # the prior box widened by the rounding guard of every step: the OBE clips each strip to
+        # the ellipsoid's own extent, so a truth exactly on the prior box's face would otherwise
+        # sit exactly on the ellipsoid's boundary, to rounding
+        c0, h0 = self.prior.center, self.prior.half_widths
+        self._box = (c0, h0 + ROUND_GUARD * (np.abs(c0) + h0))
+        self.ellipsoid = OBE.from_prior(*self._box).ellipsoid()
 
     def _segment(self, W, y, e, n_pre: int, k0: int, acc: dict) -> int:
         """Run an OBE from the current ellipsoid over the rows of W: the first ``n_pre`` are
@@ -100,7 +106,7 @@ class BoxedOBE(_OBEVariant):
     def _run(self, W, y, e, k0) -> Run:
         N = W.shape[0]
         acc = self._acc()
-        I, c0, h0 = np.eye(self.p), self.prior.center, self.prior.half_widths
+        I, (c0, h0) = np.eye(self.p), self._box
         start, processed = 0, 0
         while start < N:
             k = k0 + start

@@ -25,23 +25,41 @@ from boundid.sets.vertex_polytope import VertexPolytope
 
 #: largest dimension the exact recursion accepts
 MAX_EXACT_DIM = 4
+#: the limited polytope widens each strip by this fraction of its bound, and each LP bound by
+#: this fraction of the old and new box widths: above the LP's tolerances (1e-9 of a strip's
+#: half-width, 1e-10 of the box), so that a feasible set shrunk to a point (errors exactly at
+#: the bounds) stays feasible for HiGHS and inside every box
+LP_GUARD = 1e-8
+#: least clipped half-width of a strip in the limited polytope's LP, relative to the box's
+#: extent along the strip (keeps the LP's coefficients below 1 / LP_FLOOR)
+LP_FLOOR = 1e-7
 
 
 class DoubleDescription:
-    """A bounded polytope {x : A x <= b} with its vertices V and the vertex-facet incidence.
+    """A bounded polytope {x : A x <= b} with its vertices and the vertex-facet incidence.
 
-    V (n, p) vertices, A (k, p) unit-norm facet normals, b (k,), inc (n, k) bool: vertex i lies
-    on facet j. The incidence is kept combinatorially (new vertices inherit it), never
-    recomputed from rounded coordinates.
+    Kept relative to an origin x0 (the vertex centroid, moved after every cut) so that rounding
+    scales with the polytope's size, not with |x|: V (n, p) vertices minus x0, A (k, p) unit-norm
+    facet normals, b (k,) = the facets' offsets minus A x0, inc (n, k) bool: vertex i lies on
+    facet j. The incidence is kept combinatorially (new vertices inherit it), never recomputed
+    from rounded coordinates.
     """
 
     def __init__(self, lo: np.ndarray, hi: np.ndarray):
         p = lo.shape[0]
         corners = np.array(np.meshgrid(*[[0, 1]] * p, indexing="ij")).reshape(p, -1).T.astype(bool)
-        self.V = np.where(corners, hi, lo)
+        self.x0 = 0.5 * (lo + hi)
+        h = 0.5 * (hi - lo)
+        self.V = np.where(corners, h, -h)
         self.A = np.vstack([np.eye(p), -np.eye(p)])
-        self.b = np.concatenate([hi, -lo])
+        self.b = np.concatenate([h, h])
         self.inc = np.hstack([corners, ~corners])
+
+    def extent(self, w: np.ndarray) -> tuple[float, float]:
+        """(min, max) of w^T x over the polytope."""
+        proj = self.V @ w
+        m0 = float(w @ self.x0)
+        return m0 + float(proj.min()), m0 + float(proj.max())
 
     @property
     def dim(self) -> int:
@@ -52,7 +70,9 @@ class DoubleDescription:
         vertices cut off (0: the halfspace is redundant; nothing changes).
 
         Vertices with |a^T v - beta| <= tol count as on the plane (kept, incident to the new
-        facet); tol = 1e-11 times the polytope's extent along a. Each pair (inside vertex,
+        facet); tol = 16 eps (max |a^T v| + |beta|) in the relative coordinates, the rounding of
+        that product: a looser tolerance would leave vertices off their facets, an error that
+        grows relative to the polytope as it shrinks. Each pair (inside vertex,
         outside vertex) that is adjacent gives a new vertex where its edge crosses the plane
         (:meth:`_vertex`).
         Adjacency test (combinatorial, valid with degenerate vertices): the facets the two share
@@ -60,8 +80,10 @@ class DoubleDescription:
         p vertices are dropped (no longer facets).
         """
         p = self.dim
-        s = self.V @ a - beta
-        tol = 1e-11 * max(float(np.ptp(self.V @ a)), np.finfo(float).tiny)
+        beta = beta - float(a @ self.x0)
+        Va = self.V @ a
+        s = Va - beta
+        tol = 16 * np.finfo(float).eps * (float(np.abs(Va).max()) + abs(beta))
         out = s > tol
         if not out.any():
             return 0
@@ -84,9 +106,10 @@ class DoubleDescription:
         I_new = np.hstack([np.array(new_inc).reshape(-1, self.inc.shape[1]), np.ones((len(new_V), 1), bool)])
         inc_all = np.vstack([I_old, I_new])
         facet = inc_all.sum(axis=0) >= p
-        self.V = V
-        self.A = np.vstack([self.A, a])[facet]
-        self.b = np.append(self.b, beta)[facet]
+        A, b = np.vstack([self.A, a])[facet], np.append(self.b, beta)[facet]
+        shift = V.mean(axis=0)
+        self.x0 = self.x0 + shift
+        self.V, self.A, self.b = V - shift, A, b - A @ shift
         self.inc = inc_all[:, facet]
         return int(out.sum())
 
@@ -103,7 +126,7 @@ class DoubleDescription:
         return vi + si / (si - so) * (vo - vi)
 
     def to_set(self) -> VertexPolytope:
-        return VertexPolytope(self.V, facets=(self.A, self.b))
+        return VertexPolytope(self.x0 + self.V, facets=(self.A, self.b + self.A @ self.x0))
 
 
 class PolytopeRecursion(SetRecursion):
@@ -139,11 +162,9 @@ class PolytopeRecursion(SetRecursion):
         countdown = self.record_every - k0 % self.record_every
         for i in range(N):
             w = W[i]
-            proj = self.dd.V @ w
-            lo, hi = float(proj.min()), float(proj.max())
-            c = 0.5 * (self.dd.V.min(axis=0) + self.dd.V.max(axis=0))
+            lo, hi = self.dd.extent(w)
             m, r = 0.5 * (lo + hi), 0.5 * (hi - lo)
-            status, yc, sc = clip_strip(float(y[i]), float(e[i]), m, r, float(np.abs(w * c).sum()))
+            status, yc, sc = clip_strip(float(y[i]), float(e[i]), m, r, float(np.abs(w * self.dd.x0).sum()))
             if status == K.OUTLIER:
                 b["out_idx"][n_out], b["out_res"][n_out] = k0 + i, y[i] - m
                 n_out += 1
@@ -187,8 +208,8 @@ class LimitedPolytopeRecursion(SetRecursion):
 
     1. a block row whose strip misses the box is an outlier (skipped or raised);
     2. Q = (kept strips) ∩ (block strips) ∩ box contains the truth, and its exact bounds (2p LPs,
-       warm-started HiGHS with constraint generation) become the new box, widened outward by
-       1e-9 of its width (LP tolerance);
+       warm-started HiGHS with constraint generation) become the new box; strips and bounds are
+       widened by LP_GUARD (1e-8, relative), above the LP tolerances;
     3. the ``max_strips`` strips of Q with the least slack at the 2p bound vertices are kept
        (slack 1 - |w^T v - y| / e at the vertex v where the strip is nearest to active).
 
@@ -238,7 +259,8 @@ class LimitedPolytopeRecursion(SetRecursion):
             rows = np.arange(start, min(start + self.block, N))
             c, h = 0.5 * (self.lo + self.hi), 0.5 * (self.hi - self.lo)
             m, r = W[rows] @ c, np.abs(W[rows]) @ h
-            s = e[rows] + K.ROUND_GUARD * (np.abs(y[rows]) + e[rows] + np.abs(W[rows] * c).sum(axis=1) + r)
+            s = e[rows] * (1 + LP_GUARD) + K.ROUND_GUARD * (np.abs(y[rows]) + e[rows] + np.abs(W[rows] * c).sum(axis=1)
+                                                          + r)
             miss = np.abs(y[rows] - m) > s + r
             if miss.any():
                 out_idx += (k0 + rows[miss]).tolist()
@@ -261,16 +283,31 @@ class LimitedPolytopeRecursion(SetRecursion):
                    np.array(out_idx, np.int64), np.array(out_res))
 
     def _block_lp(self, W, y, e) -> None:
-        P = Polytope(W, y, e, box=(self.lo, self.hi))
-        b = P.bounds()
+        """Bounds of (strips W, y, e) ∩ box by LP, solved in the box's frame theta = c + h z,
+        z in [-1, 1]^p, an exact change of variables that keeps the LP well scaled however small
+        the box is next to |theta|. In that frame each strip is clipped to the box's extent
+        along it, [-r, r] with r = |h w|_1 (a strip that holds the whole box is dropped), and its
+        clipped half-width floored at LP_FLOOR r (widening only), so that the LP's coefficients
+        lie between 1 and 1 / LP_FLOOR."""
+        c, h = 0.5 * (self.lo + self.hi), 0.5 * (self.hi - self.lo)
+        Wz, yz = W * h, y - W @ c
+        r = np.abs(Wz).sum(axis=1)
+        lo_s, hi_s = np.maximum(yz - e, -r), np.minimum(yz + e, r)
+        cut = (lo_s > -r) | (hi_s < r)
+        if not cut.any():
+            self.Wk, self.yk, self.ek = W[:0], y[:0], e[:0]
+            return
+        W, Wz, r = W[cut], Wz[cut], r[cut]
+        yc, sc = 0.5 * (lo_s + hi_s)[cut], np.maximum(0.5 * (hi_s - lo_s)[cut], LP_FLOOR * r)
+        b = Polytope(Wz, yc, sc, box=(-np.ones(self.p), np.ones(self.p))).bounds()
         self.n_lps += b.info["lp_solves"]
-        pad = 1e-9 * (b.hi - b.lo) + 4 * np.finfo(float).eps * (np.abs(b.lo) + np.abs(b.hi))
-        self.lo = np.maximum(self.lo, b.lo - pad)
-        self.hi = np.minimum(self.hi, b.hi + pad)
-        V = b.vertices()
-        slack = 1.0 - np.max(np.abs((V @ W.T - y) / e), axis=0)
+        lo, hi = c + h * b.lo, c + h * b.hi
+        pad = LP_GUARD * (hi - lo + h) + 4 * np.finfo(float).eps * np.abs(c)
+        self.lo = np.maximum(self.lo, lo - pad)
+        self.hi = np.minimum(self.hi, hi + pad)
+        slack = 1.0 - np.max(np.abs((b.vertices() @ Wz.T - yc) / sc), axis=0)
         keep = np.sort(np.argsort(slack, kind="stable")[: self.max_strips])
-        self.Wk, self.yk, self.ek = W[keep], y[keep], e[keep]
+        self.Wk, self.yk, self.ek = W[keep], y[cut][keep], e[cut][keep]
 
     def current_set(self) -> Polytope | Box:
         """The kept strips and the box as a Polytope (the box alone before the first block)."""
