@@ -207,9 +207,10 @@ class LimitedPolytopeRecursion(SetRecursion):
     each block of ``block`` samples (and at the end of every ``partial_fit`` call):
 
     1. a block row whose strip misses the box is an outlier (skipped or raised);
-    2. Q = (kept strips) ∩ (block strips) ∩ box contains the truth, and its exact bounds (2p LPs,
-       warm-started HiGHS with constraint generation) become the new box; strips and bounds are
-       widened by LP_GUARD (1e-8, relative), above the LP tolerances;
+    2. Q = (kept strips) ∩ (block strips that cut the box) ∩ box contains the truth, and its
+       exact bounds (2p LPs, warm-started HiGHS with constraint generation, in the box's frame:
+       :meth:`_block_lp`) become the new box; strips and bounds are widened by LP_GUARD (1e-8,
+       relative), above the LP tolerances;
     3. the ``max_strips`` strips of Q with the least slack at the 2p bound vertices are kept
        (slack 1 - |w^T v - y| / e at the vertex v where the strip is nearest to active).
 
@@ -259,8 +260,8 @@ class LimitedPolytopeRecursion(SetRecursion):
             rows = np.arange(start, min(start + self.block, N))
             c, h = 0.5 * (self.lo + self.hi), 0.5 * (self.hi - self.lo)
             m, r = W[rows] @ c, np.abs(W[rows]) @ h
-            s = e[rows] * (1 + LP_GUARD) + K.ROUND_GUARD * (np.abs(y[rows]) + e[rows] + np.abs(W[rows] * c).sum(axis=1)
-                                                          + r)
+            guard = K.ROUND_GUARD * (np.abs(y[rows]) + e[rows] + np.abs(W[rows] * c).sum(axis=1) + r)
+            s = e[rows] * (1 + LP_GUARD) + guard
             miss = np.abs(y[rows] - m) > s + r
             if miss.any():
                 out_idx += (k0 + rows[miss]).tolist()
