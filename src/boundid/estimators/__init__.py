@@ -20,3 +20,12 @@ __all__ += ["KalmanEstimator", "RLS", "RankDeficientError", "ols", "wls"]
 from boundid.estimators.certify import Certificate, validate  # noqa: E402
 
 __all__ += ["Certificate", "validate"]
+
+from boundid.estimators.box_recursion import BoxRecursion  # noqa: E402
+from boundid.estimators.obe_variants import BoxedOBE, WindowedOBE  # noqa: E402
+from boundid.estimators.parallelotope_recursion import ParallelotopeRecursion  # noqa: E402
+from boundid.estimators.polytope_recursion import LimitedPolytopeRecursion, PolytopeRecursion  # noqa: E402
+from boundid.estimators.zonotope_recursion import ZonotopeRecursion  # noqa: E402
+
+__all__ += ["BoxRecursion", "BoxedOBE", "LimitedPolytopeRecursion", "ParallelotopeRecursion", "PolytopeRecursion",
+            "WindowedOBE", "ZonotopeRecursion"]

@@ -13,6 +13,7 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
+from boundid.sets.convex import ConvexSet
 from boundid.sets.ellipsoid import Ellipsoid
 
 # "unverified": a set-membership estimator's set that the estimator cannot vouch for (rounding may
@@ -57,6 +58,9 @@ class Estimate:
     outliers : (k,) int        indices of rows that contradicted the bounds (skipped)
     outlier_residuals : (k,)   their innovations y - w^T c at the time they were met
     info : dict                timings [s], update counts, solver status, std errors ...
+    set : ConvexSet | None     the set itself, of any family (box, zonotope, polytope ...);
+                               defaults to ``ellipsoid``, and ``ellipsoid`` is the set when the
+                               set is an Ellipsoid (None otherwise)
     """
 
     method: str
@@ -70,6 +74,13 @@ class Estimate:
     outliers: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     outlier_residuals: np.ndarray = field(default_factory=lambda: np.zeros(0))
     info: dict = field(default_factory=dict)
+    set: ConvexSet | None = None
+
+    def __post_init__(self):
+        if self.set is None:
+            self.set = self.ellipsoid
+        elif self.ellipsoid is None and isinstance(self.set, Ellipsoid):
+            self.ellipsoid = self.set
 
     @property
     def p(self) -> int:
@@ -83,8 +94,8 @@ class Estimate:
         return self.names if self.names is not None else tuple(f"theta{j + 1}" for j in range(self.p))
 
     def contains(self, theta) -> bool:
-        """Whether ``theta`` lies in the estimate's ellipsoid (False if it has none)."""
-        return bool(self.ellipsoid is not None and self.ellipsoid.contains(np.asarray(theta, float)))
+        """Whether ``theta`` lies in the estimate's set (False if it has none)."""
+        return bool(self.set is not None and self.set.contains(np.asarray(theta, float)))
 
     def to_frame(self) -> pd.DataFrame:
         """One row per parameter: center, lo, hi, width (and std error where known)."""
@@ -123,8 +134,8 @@ class Estimate:
             head.append(("Why", self.info.get("unverified_reason", "not given")))
         if self.kind in ("guaranteed", "unverified") or self.outliers.size:
             head.append(("Outliers", str(self.outliers.size)))
-        if self.ellipsoid is not None:
-            head.append(("ln volume", f"{self.ellipsoid.log_volume():.6g}"))
+        if self.set is not None:
+            head.append(("ln volume", f"{self.set.log_volume():.6g}"))
         width = 78
         lines = ["=" * width, f"{'boundid estimate':^{width}}", "-" * width]
         for k, v in head:  # long values (the reason of an unverified set) wrap under themselves
