@@ -1,7 +1,7 @@
 """Bad input ends in one line and exit 2, never a traceback; report folders stay in their place and
 are never half-written; a run that fails after computing still writes its page.
 
-Independent references: the cases of issue 13's lists "Output escapes its folder" and "Raw
+Independent references: the cases of the bad-input lists "Output escapes its folder" and "Raw
 tracebacks for ordinary bad input" (each must print exactly one ``boundid: error:`` line, exit 2,
 and compute nothing -- the regression builder is replaced by one that fails the test); the bytes
 of the previous report on disk before a SIGKILL mid-write; the failures the run itself raised.
@@ -391,7 +391,7 @@ def test_failing_estimator_and_projection_are_recorded_and_the_page_written(tmp_
 
 
 def test_too_tight_bound_diverging_resimulation_gives_a_page(tmp_path):
-    """Issue 13's case: e_max far below the noise; the OBE centre describes dynamics whose
+    """The case of e_max far below the noise; the OBE centre describes dynamics whose
     re-simulation diverges (math domain error) -- recorded as a failure, the page is written."""
     tight = BASE.replace('method = "rls"', 'method = "obe"\ne_max = 0.05').replace("seed = 3", "seed = 7")
     text = _study(tmp_path, tight)

@@ -87,7 +87,7 @@ def test_exact_optimum_has_zero_excess_and_a_shrunk_ellipsoid_fails():
 def test_p14_certificate_uses_lp_bound_vertices():
     """p = 14 (the H4 size): vertices cannot be enumerated, the 2p LP-bound vertices are checked;
     the S-procedure outer ellipsoid is the outer reference (it contains them too). The OBE
-    intervals are several times wider than the exact bounds (REFERENCES §4: ~6x)."""
+    intervals are several times wider than the exact bounds (~6x here)."""
     theta, W, y, e = _problem(14, 14, 200)
     est = OBE(14, shape0=1e4).fit(W, y, e)
     cert = validate(est, (W, y, e))

@@ -1,6 +1,6 @@
 """The direct-drive arm and the pendulum toy against the RobotModel contract.
 
-References: the matrices M, C, g, f written out again here from DIRECT_DRIVE_MODEL.md (independent
+References: the matrices M, C, g, f written out again here from docs/models.md (independent
 of the model code), finite differences in time along smooth analytic trajectories, and the
 physical-parameter formulas of the paper (section 5).
 """
@@ -15,7 +15,7 @@ RNG = np.random.default_rng(20240501)
 
 
 def dd_matrices(q, qd, th):
-    """M, C, g, f of the design note for one state (written independently of the model)."""
+    """M, C, g, f of docs/models.md for one state (written independently of the model)."""
     c2, s2 = np.cos(q[1]), np.sin(q[1])
     M = np.array([[th[0] + 2 * th[1] * c2, th[2] + th[1] * c2], [th[2] + th[1] * c2, th[2]]])
     C = th[1] * s2 * np.array([[-qd[1], -(qd[0] + qd[1])], [qd[0], 0.0]])
@@ -36,7 +36,7 @@ def random_states(n, N=50):
 
 
 def test_theta_from_physical_values():
-    """theta_true against the design note's rounded values and the paper's formulas by hand."""
+    """theta_true against the rounded values of docs/models.md and the paper's formulas by hand."""
     m = DirectDriveArm()
     np.testing.assert_allclose(m.theta_true[:5], [2.3516, 0.0838, 0.1019, 38.466, 1.827], rtol=5e-4)
     np.testing.assert_array_equal(m.theta_true[5:], [2.288, 0.175, 7.17, 1.734])
@@ -47,7 +47,7 @@ def test_theta_from_physical_values():
 
 
 def test_regressor_equals_independent_dynamics():
-    """Y theta = M qdd + C qd + g + f (matrices of the design note), random states and thetas, 1e-10."""
+    """Y theta = M qdd + C qd + g + f (matrices of docs/models.md), random states and thetas, 1e-10."""
     m = DirectDriveArm()
     q, qd, qdd = random_states(2)
     for th in (m.theta_true, RNG.uniform(0.1, 5, 9)):

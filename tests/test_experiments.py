@@ -171,7 +171,7 @@ def test_discretisations_on_a_continuous_signal():
     """Sampled sin(16 t), steady state, against the continuous responses G(j w) of lam/(s+lam) and
     lam s/(s+lam): Tustin is within 1e-4 / 2e-4 of the amplitude at t_k; the paper's low-pass
     matches the response h/2 earlier instead, and its derivative filter is ~6 % too large,
-    the gain lam h / (1 - e^{-lam h}) = 1.064 (the design note's 6 % inertia bias)."""
+    the gain lam h / (1 - e^{-lam h}) = 1.064 (the 6 % inertia bias of docs/models.md)."""
     w, t = 16.0, np.arange(4000) * H
     x = np.sin(w * t)
     G_lp, G_d = LAM / (1j * w + LAM), LAM * 1j * w / (1j * w + LAM)

@@ -120,7 +120,7 @@ def _ill_conditioned(seed):
 
 @pytest.mark.parametrize("seed", [0, 2])
 def test_factorized_form_survives_ill_conditioning_where_standard_cannot_vouch(seed):
-    """Numerical robustness (seed 000 §III.B): on cond(W) ~ 1e7-1e8 data followed by 5000 nearly
+    """Numerical robustness ([H4Paper] §III.B): on cond(W) ~ 1e7-1e8 data followed by 5000 nearly
     collinear rows, the square-root form stays finite and positive definite (X has a positive
     diagonal) and its own set, |X theta - z|^2 <= sigma, contains the truth; the shape matrix the
     Estimate needs cannot carry that set to 1e-9 (its condition number is ~1e16), which it says
@@ -141,7 +141,7 @@ def test_factorized_form_survives_ill_conditioning_where_standard_cannot_vouch(s
 
 
 # ---------------------------------------------------------------------------- the weights
-def _sigma_q(q, sigma, G, eps):  # REFERENCES §1 pencil, gamma = 1
+def _sigma_q(q, sigma, G, eps):  # [refs §OBE] pencil, gamma = 1
     return sigma + q - q * eps**2 / (1.0 + q * G)
 
 
@@ -204,7 +204,7 @@ def test_trace_weight_minimises_the_trace():
 
 def test_dasgupta_huang_weight_minimises_sigma():
     """Closed-form Dasgupta-Huang weight vs minimize_scalar of sigma'(lambda) (convex form,
-    REFERENCES §1) on [0, alpha_max], including G = 1 exactly and G < 1, G > 1."""
+    [refs §OBE]) on [0, alpha_max], including G = 1 exactly and G < 1, G > 1."""
     rng = np.random.default_rng(3)
     alpha_max = 0.9
     n_updates = 0
@@ -229,7 +229,7 @@ def test_dasgupta_huang_weight_minimises_sigma():
 @pytest.mark.parametrize("alpha_max", [0.2, 0.5, 0.9, 0.999])
 def test_dasgupta_huang_weight_respects_alpha_max(alpha_max):
     """Reference: minimize_scalar of sigma'(lambda) on [0, 1) without the cap (convex form,
-    REFERENCES §1). Always 0 <= lambda <= alpha_max; lambda == alpha_max exactly when the
+    [refs §OBE]). Always 0 <= lambda <= alpha_max; lambda == alpha_max exactly when the
     unconstrained optimum lies above the cap (or sigma' keeps falling to lambda -> 1, the branch
     1 + beta (G - 1) <= 0), and lambda equals the unconstrained optimum below it."""
     rng = np.random.default_rng(13)

@@ -1,4 +1,4 @@
-"""The OBE guarantee under stress (issue 13): a randomized harness over forms x criteria x error
+"""The OBE guarantee under stress: a randomized harness over forms x criteria x error
 patterns, and the cases that motivated it.
 
 A *silent violation* is a fit whose Estimate says kind "guaranteed" while the truth lies outside
@@ -201,7 +201,7 @@ def _issue_reproducer():
 
 
 def test_issue_reproducer_is_never_silently_wrong():
-    """Issue 13's reproducer (the standard form used to end with the truth at Mahalanobis^2 5.7,
+    """The reproducer of a silent violation (the standard form used to end with the truth at Mahalanobis^2 5.7,
     no breakdown, kind "guaranteed"). Now the standard form keeps M^-1 symmetric and the truth,
     but cannot vouch for 16-digit cancellation (a prior 1e7 times wider than the strips): it says
     "unverified" and why. The factorized form is guaranteed and contains the truth (robust

@@ -66,7 +66,7 @@ def test_noise_free_residual_and_least_squares(clean, name):
 def test_papers_pairing_and_filters_bias_the_estimate(clean, name):
     """Same noise-free data, the paper's pairing (u[k] with q[k], backward-difference qd) and filters:
     least squares is biased by several percent (inertia terms ~5 % low for the filtered models),
-    at least 10x the error of midpoint pairing + Tustin (design note, pitfalls)."""
+    at least 10x the error of midpoint pairing + Tustin (docs/models.md, pitfalls)."""
     good = rel_err(np.linalg.lstsq(*_wy(build(name, clean.q, clean.tau)), rcond=None)[0])
     R = build(name, clean.q, clean.tau, pairing="paper", discretisation="paper")
     bad = rel_err(np.linalg.lstsq(R.W, R.y, rcond=None)[0])

@@ -290,7 +290,7 @@ def test_filters_fail_cleanly_on_badly_scaled_data(how):
 
 @pytest.mark.parametrize("make", [lambda: RLS(4), lambda: KalmanEstimator(4, None, 1000.0, R=1.0)])
 def test_issue_scaled_data_from_the_start_raises_numerical_error(make):
-    """The case of issue 13: data x 1e7 with the paper's P0 = 1000 I. The first rows already cancel
+    """The case of data x 1e7 with the paper's P0 = 1000 I. The first rows already cancel
     all 16 digits of P; NumericalError says so and the filter keeps its prior (n = 0)."""
     _, W, _, y = _problem(11, N=200)
     f = make()

@@ -1,4 +1,4 @@
-"""The exact layer does not depend on the units of the parameters or of y (issue 13, item 1).
+"""The exact layer does not depend on the units of the parameters or of y.
 
 Each case draws a well-scaled problem (W0 gaussian, truth u), then hides it behind column scales
 c_j in [1e-12, 1e12] (W = W0 * c, theta = u / c) and an error bound e = rel * rms(W0 u) with
@@ -91,7 +91,7 @@ def test_scaled_problems_agree_with_linprog_long(seed):
 
 
 def test_issue_13_reproducers():
-    """Issue 13: a column x1e-10 (e = 0.1) and a column x1e-6 (e = 1e3), truth inside every strip:
+    """A column x1e-10 (e = 0.1) and a column x1e-6 (e = 1e3), truth inside every strip:
     not empty, and the bounds of the scaled column equal linprog on the rescaled problem."""
     rng = np.random.default_rng(0)
     for col_scale, e in ((1e-10, 0.1), (1e-6, 1e3)):

@@ -167,7 +167,7 @@ def test_minimum_duration_matches_the_regression_builders(h, decimation, cutoff)
 
 
 def test_experiment_too_short_or_cutoff_too_high_is_refused_when_read(tmp_path):
-    """0.01 s (the padlen case of issue 13) and a low-pass cut-off above the decimated Nyquist
+    """0.01 s (the filtfilt padlen case) and a low-pass cut-off above the decimated Nyquist
     frequency are refused when the study is read, with the minimum or the limit."""
     with pytest.raises(StudyError, match=r"duration_s is 0\.01 s: too short for the inverse_dynamic model, which "
                                          r"needs more than 0\.05 s"):

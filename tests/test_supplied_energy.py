@@ -1,4 +1,4 @@
-"""The supplied energy regression from a moving start (issue 13: it was tested only from rest).
+"""The supplied energy regression from a moving start (it used to be tested only from rest).
 
 References: the true theta used to simulate (least-squares recovery on noise-free data), and the
 same regression built without subtracting H(0), which must fail.

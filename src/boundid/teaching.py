@@ -1,4 +1,4 @@
-"""The teaching kit (issue 8): lessons in ``studies/teaching/lesson*.py`` and their HTML handouts.
+"""The teaching kit: lessons in ``studies/teaching/lesson*.py`` and their HTML handouts.
 
 A lesson is a percent-format Python script (``# %%`` cells): it runs with plain ``python`` and
 opens as a notebook through jupytext. Each builds a :class:`Handout` (a

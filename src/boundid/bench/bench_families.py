@@ -23,7 +23,7 @@ from boundid.estimators.zonotope_recursion import zonotope_step
 from boundid.sets import Polytope
 
 GOALS = """
-Recursive guaranteed-set families (issue 16 item 8) on random strips: rows w ~ N(0, I), uniform
+Recursive guaranteed-set families on random strips: rows w ~ N(0, I), uniform
 errors within e = 0.5, truth ~ N(0, I), prior box 0 +- 10 (every family starts from it; the
 OBE from the ellipsoid circumscribing it).
 

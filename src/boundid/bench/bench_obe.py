@@ -26,7 +26,7 @@ than wall time; `default_ratio_wall` is the wall-clock one).
 
 Goals at p = 14: selective >= 4 M samples/s for both forms and >= 20x the numpy loop;
 every-sample factorized >= 1.5 M updates/s; a fit with default settings within 20 % of the
-sparse rate (`default_ratio` >= 0.8, issue 19 goal 4; before history-on-updates the default
+sparse rate (`default_ratio` >= 0.8; before history-on-updates the default
 recorded every sample and ran at about half the rate). Rates are wall-clock (including input
 checks and building the Estimate); the machine's two cores are shared, so
 `compiled_cpu_M_per_s` (process CPU time) is given too, with the 1-minute load average when the

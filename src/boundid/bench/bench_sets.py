@@ -22,7 +22,7 @@ CACHE = Path(os.environ.get("BOUNDID_CACHE", ".cache/boundid"))
 STUDIES = ("studies/h4_obe.toml", "studies/direct_drive_rls.toml")
 
 GOALS = """
-Goals (issue 2):
+Goals (exact stages at scale):
 
 * Exact parameter bounds of a p = 14 polytope with N = 1e5 strips in <= 1.5 s, and >= 50x faster
   than 2p independent `scipy.optimize.linprog` calls (HiGHS) on the full LP. Both references
@@ -36,7 +36,7 @@ Goals (issue 2):
   (no tightening, no redundancy removal). `ratio` = reference time / our time; `log_vol_per_axis`
   = ln vol / p (the outer ellipsoids differ in size: smaller is better).
 
-Goals (issue 19):
+Goals (study scale):
 
 * Study scale: the exact stage (LP bounds + SDP outer + inner + John) of each study <= 5 s, on
   the study's own regression (built by the study machinery, cached under .cache/boundid).

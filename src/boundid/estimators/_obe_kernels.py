@@ -1,6 +1,6 @@
 """Compiled (numba) kernels of the recursive OBE estimators: weights and the two batch loops.
 
-Notation (REFERENCES §1): ellipsoid E = {theta : (theta - c)^T M (theta - c) <= sigma}, n = dim,
+Notation ([refs §OBE]): ellipsoid E = {theta : (theta - c)^T M (theta - c) <= sigma}, n = dim,
 row w, target y, bound e; innovation eps = y - w^T c, G = w^T M^-1 w, T = tr M^-1,
 H = |M^-1 w|^2. The weight rules below take the strip *after clipping and normalising* to
 gamma = 1 (the row divided by the clipped half-width), and return the convex-combination weight
@@ -70,7 +70,7 @@ FASTMATH = {"reassoc", "contract", "nsz"}
 
 @njit(cache=True)
 def weight_volume(n, sigma, G, eps):
-    """Fogel-Huang volume-optimal weight (REFERENCES §1), gamma = 1. Returns (lambda, alpha).
+    """Fogel-Huang volume-optimal weight ([FogelHuang1982], [refs §OBE]), gamma = 1. Returns (lambda, alpha).
 
     q* is the positive root of a2 q^2 + a1 q + a0 with a2 = (n-1) G^2,
     a1 = G [(2n-1) - sigma G + eps^2], a0 = n (1 - eps^2) - sigma G; no update when a0 >= 0.
@@ -134,7 +134,7 @@ def smallest_positive_cubic_root(b3, b2, b1, b0):
 
 @njit(cache=True)
 def weight_trace(n, sigma, G, eps, T, H):
-    """Trace-optimal weight (REFERENCES §1), gamma = 1: q* = smallest positive root of
+    """Trace-optimal weight ([refs §OBE]), gamma = 1: q* = smallest positive root of
     b3 q^3 + b2 q^2 + b1 q + b0; update only if b0 < 0. Returns (lambda, alpha)."""
     b0 = T * (1.0 - eps * eps) - H * sigma
     if not b0 < 0.0:
@@ -156,7 +156,7 @@ def weight_trace(n, sigma, G, eps, T, H):
 
 @njit(cache=True)
 def weight_dh(sigma, G, eps, alpha_max):
-    """Dasgupta-Huang (1987) weight minimising sigma', capped at alpha_max < 1 (REFERENCES §1),
+    """[DasguptaHuang1987] weight minimising sigma', capped at alpha_max < 1 ([refs §OBE]),
     gamma = 1. Returns (lambda, 1 - lambda)."""
     if sigma + eps * eps <= 1.0:
         return 0.0, 1.0
@@ -184,7 +184,7 @@ def choose_weight(crit, n, sigma, G, eps, T, H, alpha_max):
 
 @njit(cache=True)
 def clip_strip(y, e, m, r):
-    """Clip the strip |y - w^T theta| <= e to E's extent [m - r, m + r] along w (REFERENCES §1).
+    """Clip the strip |y - w^T theta| <= e to E's extent [m - r, m + r] along w ([refs §OBE]).
 
     Returns (centre y', half-width gamma', q) with q = r^2 - (y' - m)^2 >= 0 computed without
     cancellation as (gap_hi + h)(gap_lo + h): h = (hi - lo) / 2 is the clipped half-width before
@@ -199,7 +199,7 @@ def clip_strip(y, e, m, r):
 
 @njit(cache=True)
 def sigma_update(sigma, lam, alpha, Gn, en, qn):
-    """sigma' of the pencil (REFERENCES §1, gamma = 1), and whether it is consistent.
+    """sigma' of the pencil ([refs §OBE], gamma = 1), and whether it is consistent.
 
     The textbook form alpha sigma + lambda - lambda alpha eps^2 / den (den = alpha + lambda G)
     cancels when sigma' is much smaller than its terms (a strip that grazes E: the unit disc cut
@@ -223,13 +223,13 @@ def _record(j, k, c, lv, hist_idx, hist_c, hist_lv):
 
 @njit(cache=True, fastmath=FASTMATH)
 def downdate(P, c, w, g, kc, kp, inv_a):
-    """The Sherman-Morrison step of the standard form, in place (seed eq. (28)-(30)):
+    """The Sherman-Morrison step of the standard form, in place ([H4Paper] eqs. 28-30):
     c += kc g,  P = (P - kp g g^T) / alpha  with inv_a = 1 / alpha.
 
     Only the upper triangle is computed and mirrored, so P stays exactly symmetric: computing
     P[a, b] and P[b, a] separately rounds them differently (and fused multiply-adds make that
     worse), and the antisymmetric part of M^-1 then grows from step to step until the ellipsoid
-    no longer contains the truth (the first root cause of the silent violations of issue 13).
+    no longer contains the truth (the first root cause of the silent violations the stress harness found).
 
     Returns (rmax, shrink, wdw, definite): rmax = max_a P_aa / (alpha P'_aa) (how much of a
     diagonal entry the subtraction cancelled), shrink = max_a alpha P'_aa / P_aa (<= 1),
@@ -310,7 +310,7 @@ def downdate_error(rmax, omega):
 @njit(cache=True, fastmath=FASTMATH)
 def run_standard(P, c, state, W, Y, E, crit, selective, alpha_max, stop_on_outlier, k0, record_every,
                  log_ball, hist_idx, hist_c, hist_lv, hist_S, out_idx, out_res, counts):
-    """Standard (information-matrix) OBE over the rows of W, in place (seed eq. (28)-(30)).
+    """Standard (information-matrix) OBE over the rows of W, in place ([H4Paper] eqs. 28-30).
 
     P : (n, n)   M^-1, kept by Sherman-Morrison (O(n^2) per step), exactly symmetric
     c : (n,)     centre
@@ -468,7 +468,7 @@ def upper_inverse(X):
 @njit(cache=True, fastmath=FASTMATH)
 def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_outlier, k0, record_every,
                    log_ball, hist_idx, hist_c, hist_lv, hist_S, out_idx, out_res, counts):
-    """Factorized (square-root information) OBE, in place (REFERENCES §2, seed eq. (33)-(35)).
+    """Factorized (square-root information) OBE, in place ([refs §QR], [H4Paper] eqs. 33-35).
 
     X : (n, n) upper triangular with M = X^T X;  z = X c : (n,);  c : (n,) centre (kept current
     on return); state : (N_STATE,) see the S_* indices (S_OMEGA unused).

@@ -9,7 +9,7 @@ recursive estimator's final set, or any user's ellipsoid), :func:`validate` repo
 (c) the log-volume excess of E per dimension, (ln vol E - ln vol E_ref) / p, over
     - the outer reference: an achievable outer ellipsoid of P, the exact minimum-volume one for
       p <= 6 (minimum-volume ellipsoid of the vertices), else the S-procedure ellipsoid on
-      tightened strips (REFERENCES §3);
+      tightened strips ([refs §SDP]);
     - the inner (maximum-volume inscribed) ellipsoid: vol(E_in) <= vol(P) <= vol(any outer
       ellipsoid), so this excess bounds the distance to the unknown optimum from above;
     and, for p <= 6, over P itself.

@@ -4,7 +4,7 @@ Both solve y = W theta + e through the thin SVD W = U diag(s) V^T (the same fact
 ``numpy.linalg.lstsq`` uses), which also gives the rank, the condition number and, when W is rank
 deficient, the null space naming the parameter combinations the data cannot separate.
 
-Statistics (Gaussian, homoscedastic noise after weighting; REFERENCES: Gautier & Khalil):
+Statistics (Gaussian, homoscedastic noise after weighting; [Gautier1997], [GautierKhalil1990]):
 
 - residual variance      sigma^2 = |y - W theta|^2 / (N - p)
 - covariance             C = sigma^2 (W^T W)^-1 = sigma^2 V diag(s^-2) V^T

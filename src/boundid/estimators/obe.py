@@ -3,26 +3,26 @@
 Model: y_k = w_k^T theta + e_k with |e_k| <= e_max_k. Starting from an ellipsoid E0 that contains
 the true theta, each observation's strip {theta : |y_k - w_k^T theta| <= e_max_k} is intersected
 with the current ellipsoid and the intersection is enclosed in a new ellipsoid of the pencil of
-REFERENCES §1, whose weight minimises the volume (Fogel & Huang 1982), the trace, or sigma
-(Dasgupta & Huang 1987). Each strip is first clipped to the ellipsoid's extent along w_k, which
+[refs §OBE], whose weight minimises the volume [FogelHuang1982], the trace, or sigma
+[DasguptaHuang1987]. Each strip is first clipped to the ellipsoid's extent along w_k, which
 makes the volume step the exact one-step optimum. Two numerically different implementations of
 the same recursion:
 
-* ``form="standard"``: centre c, sigma and M^-1 kept by Sherman-Morrison (seed 000 eq. (28)-(30));
+* ``form="standard"``: centre c, sigma and M^-1 kept by Sherman-Morrison ([H4Paper] eqs. 28-30);
   cheap, but M^-1 is a covariance-like matrix and each rank-one downdate *subtracts*: a step that
   shrinks the ellipsoid along w by a factor rho leaves M^-1's entries with absolute rounding
   u |M^-1| while the result along w is |M^-1| / rho, so about log10(rho) digits are lost
   (rho reaches 1e15 when a wide prior meets a narrow strip). Computing M^-1[a, b] and
   M^-1[b, a] separately also let the antisymmetric part of M^-1 grow until the truth fell out
-  (issue 13: Mahalanobis^2 5.7 with kind "guaranteed"). The loop therefore keeps M^-1 exactly
+  (a stress test found the truth at Mahalanobis^2 5.7 with kind "guaranteed"). The loop therefore keeps M^-1 exactly
   symmetric (upper triangle computed and mirrored), computes sigma' without cancellation,
   checks definiteness (w^T M^-1 w and the diagonal stay > 0) and sigma (in (0, 1]), and
   accumulates a first-order bound on the error of the Mahalanobis distance (the cancellation
   and conditioning of each downdate, :func:`_obe_kernels.downdate_error`), carried forward as
   later steps down-weight the old information. When it cannot vouch for its result the
   Estimate has kind "unverified" and says why.
-* ``form="factorized"``: the square-root information form of Lesecq & Barraud (seed 000
-  eq. (33)-(35), REFERENCES §2): M = X^T X with X upper triangular, z = X c, each update a QR
+* ``form="factorized"``: the square-root information form of [LesecqBarraud] ([H4Paper]
+  eqs. 33-35, [refs §QR]): M = X^T X with X upper triangular, z = X c, each update a QR
   of the appended row by Givens rotations. M' = alpha M + lambda w w^T adds, never subtracts,
   so it stays positive definite and accurate; it keeps the same watch (sigma, definiteness, and
   the accuracy of the shape matrix formed from X for the Estimate).
@@ -126,7 +126,7 @@ class OBE:
     recursion proved its state corrupt: M^-1 indefinite on some row (w^T M^-1 w <= 0, the row then
     skipped, or a diagonal entry <= 0; counted in ``n_breakdowns``), sigma outside (0, 1], or a set
     that cannot be written as a positive definite shape matrix.
-    The factorized form keeps sigma separately instead of normalising it to 1 (seed eq. (35)
+    The factorized form keeps sigma separately instead of normalising it to 1 ([H4Paper] eq. 35
     divides [X, z] by sqrt(sigma)); the ellipsoid is the same.
     """
 

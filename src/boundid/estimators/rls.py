@@ -1,6 +1,6 @@
 """Recursive least squares (RLS) with exponential forgetting, and its compiled loop.
 
-The direct-drive paper (seed 001, eqs. 18-21) runs the standard RLS on each regression model with
+The direct-drive paper ([DirectDrivePaper] eqs. 18-21) runs the standard RLS on each regression model with
 theta(0) = 0 and P(0) = 1000 I; those are this class's defaults. One step, for a row w (p,) and a
 measurement y, with forgetting factor lambda in (0, 1]:
 

@@ -1,4 +1,4 @@
-"""Excitation signals: the direct-drive paper's open-loop torques (seed 001, eqs. (31)-(32)).
+"""Excitation signals: the direct-drive paper's open-loop torques ([DirectDrivePaper] eqs. 31-32).
 
     tau_j(t) = (1 - exp(-r_j t)) a_j + sum_i A_ji sin(w_ji t + phi_ji)
 

@@ -1,6 +1,6 @@
 """First-order regression filters, trapezoid integrals, and the pairing of samples with the torque hold.
 
-Filters (seed 001, section 4): the low-pass f(s) = lambda / (s + lambda) and the "filtered
+Filters ([DirectDrivePaper] section 4): the low-pass f(s) = lambda / (s + lambda) and the "filtered
 derivative" lambda s / (s + lambda), lambda in rad/s (the paper writes "50 Hz"; the study treats
 lambda as a parameter in rad/s, default 50). They are discretised with ``control.c2d``:
 
@@ -15,7 +15,7 @@ lambda as a parameter in rad/s, default 50). They are discretised with ``control
   lambda (1 - z^-1) / D(z) with D = (1 + lambda h / 2) - (1 - lambda h / 2) z^-1: the two
   branches share the same time base, second-order accurate. Use it with midpoint pairing.
 
-Pairing (DIRECT_DRIVE_MODEL.md, "Align the samples with the zero-order hold"): the torque u[k]
+Pairing (docs/models.md, "Align the samples with the zero-order hold"): the torque u[k]
 acts on [kh, (k+1)h). :func:`zoh_midpoint` pairs it with the midpoint of that interval
 (q = (q[k] + q[k+1]) / 2, qd = (q[k+1] - q[k]) / h, t = (k + 1/2) h), which makes u[k]^T qd h the
 exact work of the interval. :func:`paper_pairing` keeps the paper's choice: u[k] with q[k] and the

@@ -1,4 +1,4 @@
-"""The H4 paper's data pipeline (seed 000, section IV.A): from measured q and Gamma to the regression.
+"""The H4 paper's data pipeline ([H4Paper] section IV.A): from measured q and Gamma to the regression.
 
 1. velocities and accelerations: zero-phase Butterworth low-pass of q (forward and backward) then
    central differences. The cut-off keeps the closed-loop position band [0, w_dyn] undistorted:

@@ -13,11 +13,11 @@ of sample k. Energy and power models give one row per sample (``joint = -1``).
 The filtered models start the filters from rest at the first sample, so the signal entering the
 derivative filter must start at zero too: that is why it is Ya - Ya(0) and H - H(0). Filtering
 H itself injects lambda H(0) e^{-lambda t}, a transient that exists nowhere in the robot
-(DIRECT_DRIVE_MODEL.md, pitfalls). Pass samples paired with the torque hold
+(docs/models.md, pitfalls). Pass samples paired with the torque hold
 (:func:`boundid.experiments.filters.zoh_midpoint`, with the default Tustin filters) to avoid the
 half-sample skew of the paper's pairing.
 
-Why the supplied energy model fails with noise (seed 001, section 6.2). Its output is the running
+Why the supplied energy model fails with noise ([DirectDrivePaper] section 6.2). Its output is the running
 integral of the power, y_k = h sum_{j<=k} tau_j^T qd_j. Torque noise e_j enters as
 h sum_j e_j^T qd_j: a random walk whose standard deviation grows like sigma h sqrt(sum_j |qd_j|^2)
 (sigma = 2 N m, |qd|_rms = 3.9 rad/s on the paper's experiment: 0.42 J after 1 s, 1.2 J after

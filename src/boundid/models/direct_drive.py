@@ -1,7 +1,7 @@
-"""The 2-dof direct-drive arm of seed 001 (CICESE arm), linear in 9 parameters.
+"""The 2-dof direct-drive arm of [DirectDrivePaper] (CICESE arm), linear in 9 parameters.
 
 Two links moving in the vertical plane, angles measured from the downward vertical (q = 0 is
-hanging at rest). The parameter vector (paper section 5, DIRECT_DRIVE_MODEL.md) is
+hanging at rest). The parameter vector (paper section 5, docs/models.md) is
 
     th1 = m1 lc1^2 + m2 l1^2 + m2 lc2^2 + I1 + I2   [kg m^2]
     th2 = l1 m2 lc2                                  [kg m^2]
@@ -28,7 +28,7 @@ import numpy as np
 from boundid.errors import InputError
 from boundid.models.base import RobotModel, coulomb
 
-#: Physical values of the CICESE direct-drive arm (DIRECT_DRIVE_MODEL.md table), SI units.
+#: Physical values of the CICESE direct-drive arm (docs/models.md), SI units.
 PHYSICAL = {
     "m1": 23.902, "m2": 3.880, "l1": 0.45, "l2": 0.45, "lc1": 0.091, "lc2": 0.048,
     "I1": 1.266, "I2": 0.093, "g": 9.81, "b1": 2.288, "b2": 0.175, "fc1": 7.17, "fc2": 1.734,

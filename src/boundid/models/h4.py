@@ -1,11 +1,11 @@
-"""The H4 parallel robot's dynamic model, linear in 14 parameters (seed 000, eqs. 14, 18, 19).
+"""The H4 parallel robot's dynamic model, linear in 14 parameters ([H4Paper] eqs. 14, 18, 19).
 
     Gamma = Imot qdd + J^T M (xdd - G) + Fv qd + Fs sign(qd),   xdd = J qdd + Jdot qd   (14), (19)
     M = diag(Mnac, Mnac, Mnac, Ibc),  G = (0, 0, -g, 0)
     theta = [Imot1..4, Mnac, Ibc, Fv1..4, Fs1..4]                                      (18)
 
 The joint state is the motor angles q (rad); the nacelle pose x = FK(q) is computed inside by the
-Newton forward model. Geometry, true and prior values: the project's H4 design note (true = the
+Newton forward model. Geometry, true and prior values: docs/models.md (true = the
 paper's Table I ellipsoid centre, prior = its a-priori column; friction has no prior, NaN).
 
 Derived forms used by the regression models (K = kinetic, U = potential energy):

@@ -1,7 +1,7 @@
 """H4 parallel robot kinematics: geometry, closed-form inverse model, Jacobian, Newton forward model.
 
-The seed-000 paper (section II.A) gives the structure but not the dimensions (they are not
-public); the geometry below is the one chosen for this project (its H4 design note):
+[H4Paper] (section II.A) gives the structure but not the dimensions (they are not
+public); the geometry below is the one chosen for this project (docs/models.md):
 
     alpha = (0, pi, 3pi/2, 3pi/2)          u = (+y, -y, +x, +x)          (paper, section II.A)
     v_i = (cos alpha_i, sin alpha_i, 0),   w_i = u_i x v_i (= -z)
@@ -32,7 +32,7 @@ _AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0), "
 
 @dataclass(frozen=True)
 class H4Geometry:
-    """Dimensions of the H4 robot (m, rad). Defaults: the project's choice (H4_MODEL.md).
+    """Dimensions of the H4 robot (m, rad). Defaults: the project's choice (docs/models.md).
 
     R : motor radius; L : arm (motor-to-elbow) length; l : forearm (elbow-to-nacelle) length;
     d, h : half lengths of the "H" nacelle; s : offset of motors 3 and 4 along x.

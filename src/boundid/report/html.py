@@ -33,7 +33,7 @@ from boundid.report.figures import DPI
 from boundid.report.output import write_file_atomically
 from boundid.report.tables import FloatFormat, format_frame, latex_table, markdown_table, shows_index
 
-MAX_PAGE_BYTES = 3_000_000  # issue 7: a study page stays under 3 MB
+MAX_PAGE_BYTES = 3_000_000  # a study page stays under 3 MB
 
 _CSS = """
 :root { --fg: #1f2328; --muted: #59636e; --line: #d1d9e0; --bg-alt: #f6f8fa; --accent: #0072B2; }

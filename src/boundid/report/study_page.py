@@ -253,7 +253,7 @@ def study_page(r: StudyResult) -> Page:
         page.section("What failed",
                      "Reported as it failed; no other answer is substituted, and the rest of the page stands. "
                      "The standard-form OBE keeps M^-1 by rank-one downdates, which lose positive definiteness "
-                     "to rounding when a wide prior meets very informative rows: the reason seed 000 uses the "
+                     "to rounding when a wide prior meets very informative rows: the reason the H4 paper uses the "
                      "factorized (square-root) form.")
         page.table(pd.DataFrame(failures, columns=["stage", "subject", "failure"]).set_index("stage"),
                    "Failures of the run and of the page.", name="failures")

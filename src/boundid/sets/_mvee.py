@@ -1,5 +1,5 @@
 """Minimum-volume ellipsoid around points, with a certified lower bound (Todd 2016,
-"Minimum-Volume Ellipsoids: Theory and Algorithms", ch. 3; REFERENCES §3).
+"Minimum-Volume Ellipsoids: Theory and Algorithms", ch. 3; [refs §SDP]).
 
 The Wolfe-Atwood (Khachiyan) algorithm with Todd-Yildirim away steps on the lifted points
 q_i = (x_i, 1): weights u on the points, Lambda(u) = sum u_i q_i q_i^T, omega_i = q_i^T

@@ -1,4 +1,4 @@
-"""The feasible parameter set of bounded-error data: a polytope of strips (REFERENCES §3).
+"""The feasible parameter set of bounded-error data: a polytope of strips ([refs §LP]).
 
 P = {theta : |y_k - w_k^T theta| <= e_k for every row k}  (optionally  ∩ box ∩ {A theta <= b}).
 
@@ -17,7 +17,7 @@ the parameters or of y:
   half-widths, so that P spans [-1, 1] along every z_j. bounds() runs in stages on strided
   samples of the rows (N / 16^k); after each stage it moves to the frame of that stage's
   bounding box (which contains P's) and drops the strips that contain the box (no later optimum
-  can violate them: the box-screen of issue 19); the last stage is re-solved once more in the
+  can violate them: the box-screen); the last stage is re-solved once more in the
   final box frame when that frame was off by more than 10x in some direction and the vertices
   fail their certificate (see Bounds) where they were solved.
 
@@ -467,7 +467,7 @@ class Polytope:
     # ------------------------------------------------------------------ consistency
     def consistency(self) -> Consistency:
         """gamma* = min_theta max_k |y_k - w_k^T theta| / e_k over the prior (one LP,
-        REFERENCES §3); gamma = inf if the prior alone is empty. Never raises for bad data.
+        [refs §LP]); gamma = inf if the prior alone is empty. Never raises for bad data.
 
         Solved in the first frame: rows [w_k * scale, e_k] / |[w_k * scale, e_k]| on (z, t), so
         that both the parameters and the level t = gamma are well scaled."""
@@ -697,7 +697,7 @@ class Polytope:
 
     def tightened(self, rows=None) -> Polytope:
         """The strips ``rows`` (default: all) each shrunk to the exact extent of P along w_k
-        (REFERENCES §3 "strip tightening"; supports batched by normal cones, so far fewer than
+        ([refs §LP] "strip tightening"; supports batched by normal cones, so far fewer than
         2 LPs per strip); prior box and halfspaces kept.
 
         The result contains P (each tightened strip is widened by the LP tolerance, 1e-9 of P's

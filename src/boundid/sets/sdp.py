@@ -1,6 +1,6 @@
 """Exact and certified ellipsoids of polytopes and point sets by SDP (cvxpy + Clarabel).
 
-REFERENCES §3: maximum-volume inscribed ellipsoid, S-procedure outer ellipsoid on tightened
+[refs §SDP]: maximum-volume inscribed ellipsoid, S-procedure outer ellipsoid on tightened
 strips (column generation), John's factor-n enlargement, minimum-volume ellipsoid around points,
 the bracket [lower, upper] of the minimum-volume ellipsoid containing P, and the exact one-step
 ellipsoid of E ∩ strip. Every SDP is solved in scaled coordinates (the box frame of P, where P
@@ -124,7 +124,7 @@ def _known_vertices(P: Polytope) -> np.ndarray:
 
 
 def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) -> SDPResult:
-    """Maximum-volume ellipsoid inscribed in P (exact, convex; REFERENCES §3).
+    """Maximum-volume ellipsoid inscribed in P (exact, convex; [refs §SDP]).
 
     E = {x0 + B u : |u| <= 1}: maximise log det B s.t. |B g_i| + g_i^T x0 <= h_i for every side
     of every strip and halfspace, and the LP bounding box (implied by P); solved in the box
@@ -185,7 +185,7 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
 
 def _s_procedure(Gs, mid, half, extra, allow_fallback: bool, what: str, study_scale: bool = False):
     """Minimum-volume ellipsoid containing ∩_i {|g_i^T z - mid_i| <= half_i} ∩ (extra quadrics)
-    by the S-procedure LMI (Boyd et al. 1994 §3.7.2; REFERENCES §3).
+    by the S-procedure LMI ([Boyd1994] §3.7.2; [refs §SDP]).
 
     Quadrics q(z) = z^T A z + 2 b^T z + c <= 0: a strip is (g g^T, -mid g, mid^2 - half^2);
     ``extra`` is a list of (A, b, c). Returns (A0, b0, tau, sig, solver, status, Zd) in z
@@ -264,7 +264,7 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
                     batch: int = 64, max_rounds: int = 30) -> SDPResult:
     """An ellipsoid guaranteed to contain P: the S-procedure on the strips of P each tightened to
     the exact extent of P along its normal, plus the LP bounding box and the halfspace priors
-    tightened likewise (REFERENCES §3); every such slab contains P, so any subset of them gives
+    tightened likewise ([refs §LP]); every such slab contains P, so any subset of them gives
     a valid outer ellipsoid, and more slabs give a smaller one.
 
     ``strips`` (default: every strip of P) is the pool. The S-procedure is solved by column
@@ -403,7 +403,7 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
 
 @dataclass(frozen=True)
 class VolumeBracket:
-    """ln vol of the minimum-volume ellipsoid containing P, bracketed (issue 16 item 6).
+    """ln vol of the minimum-volume ellipsoid containing P, bracketed ([FreundOrlin1985]: it is hard to compute).
 
     lower : a lower bound on ln vol of every ellipsoid containing P: the dual bound of the
         minimum-volume ellipsoid around points of P (:func:`boundid.sets._mvee.mvee_dual`); any ellipsoid
@@ -484,7 +484,7 @@ def min_volume_bracket(P: Polytope, n_directions: int | None = None, rounds: int
 
 def john_outer(P: Polytope, allow_fallback: bool = False) -> SDPResult:
     """The maximum-volume inscribed ellipsoid scaled by p about its centre (John 1948: it
-    contains P; factor p, not sqrt(p), since P is not centrally symmetric; REFERENCES §3).
+    contains P; factor p, not sqrt(p), since P is not centrally symmetric; [refs §SDP]).
 
     The guarantee holds for the exact inscribed ellipsoid; the numerical one is checked on the
     known vertices of P (all for p <= 6, else the LP-bound ones) and enlarged to cover them if
@@ -505,7 +505,7 @@ def john_outer(P: Polytope, allow_fallback: bool = False) -> SDPResult:
 
 
 def enclosing_ellipsoid(points, allow_fallback: bool = False) -> SDPResult:
-    """Minimum-volume ellipsoid containing ``points`` (m, n) (exact; REFERENCES §3):
+    """Minimum-volume ellipsoid containing ``points`` (m, n) (exact; [refs §SDP]):
     maximise log det A s.t. |A p_i + b| <= 1; E = {x : |A x + b| <= 1}.
 
     The points must span R^n affinely (m >= n + 1). Solved in coordinates centred and scaled by
@@ -562,7 +562,7 @@ def enclosing_ellipsoid(points, allow_fallback: bool = False) -> SDPResult:
 
 
 def step_ellipsoid(E: Ellipsoid, w, y: float, e_max: float, allow_fallback: bool = False) -> SDPResult:
-    """Minimum-volume ellipsoid containing E ∩ {x : |y - w^T x| <= e_max} (exact; REFERENCES §1, §3).
+    """Minimum-volume ellipsoid containing E ∩ {x : |y - w^T x| <= e_max} (exact; [refs §OBE], [refs §SDP]).
 
     Solved in the unit-ball coordinates of E (x = c + L z, shape = L L^T); the strip is first
     clipped to E's extent along w, which makes the one-ellipsoid-one-strip S-procedure exact.

@@ -57,7 +57,7 @@ class PreprocessingConfig:
 
     pairing : how the filtered/energy models pair each held torque u[k] with the state:
         "zoh_midpoint" (midpoint of the hold interval, velocity (q[k+1] - q[k]) / h) or "paper"
-        (q[k] with the backward difference, as seed 001)
+        (q[k] with the backward difference, as the direct-drive paper)
     lowpass_cutoff_hz : zero-phase Butterworth cut-off before the central differences that give
         qd and qdd for the inverse dynamic model (None: no filter)
     decimation : parallel filtering and decimation factor of the inverse dynamic rows

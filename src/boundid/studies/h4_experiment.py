@@ -1,4 +1,4 @@
-"""The closed-loop experiment of seed 000 (H4): PI control at 1 kHz on the "truth" robot."""
+"""The closed-loop experiment of [H4Paper]: PI control at 1 kHz on the "truth" robot."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ def closed_loop_data(cfg: StudyConfig, model: RobotModel, rng: np.random.Generat
     """Identification and validation recordings (encoder angles, measured torques) of the H4."""
     exp = cfg.experiment
     if model.name != "h4":
-        raise StudyError(f"{cfg.file}: experiment.control = 'closed_loop' is the H4 experiment of seed 000; "
+        raise StudyError(f"{cfg.file}: experiment.control = 'closed_loop' is the H4 paper's experiment; "
                          f"use 'open_loop' for {model.name}.")
     if exp.validation_duration_s <= 0:
         raise StudyError(f"{cfg.file}: experiment.validation_duration_s must be > 0 for the cross-validation "

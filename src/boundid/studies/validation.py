@@ -1,8 +1,8 @@
 """Validation of identified parameters on data they were not fitted to (or by re-simulation).
 
-- open loop (seed 001): re-simulate the robot with each identified theta under the same torques
+- open loop ([DirectDrivePaper]): re-simulate the robot with each identified theta under the same torques
   and compare the joint positions with the measured ones;
-- cross-validation trajectory (seed 000, eq. 37): predict the torque of a different experiment,
+- cross-validation trajectory ([H4Paper] eq. 37): predict the torque of a different experiment,
   with the guaranteed bounds y = w^T theta_hat +- sqrt(w^T S w) (S the OBE shape matrix) and the
   statistical 95 % prediction band w^T theta_hat +- 1.96 sqrt(w^T Cov w + sigma^2).
 """
