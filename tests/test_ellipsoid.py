@@ -35,7 +35,7 @@ def test_information_and_projection():
     F = Ellipsoid.from_information(np.zeros(3), np.linalg.inv(S), sigma=4.0)
     np.testing.assert_allclose(F.shape, 4 * S)
     assert E.scaled(2.0).log_volume() == pytest.approx(E.log_volume() + 3 * np.log(2))
-    P = E.project([2, 0])
+    P = E.project(2, 0)
     np.testing.assert_allclose(P.shape, [[3.0, 0.1], [0.1, 2.0]])
 
 

@@ -1,5 +1,5 @@
 """ConvexSet contract of the set families (boundid.sets: Box, Zonotope, Parallelotope,
-VertexPolytope, shadow). Every expected value comes from an independent computation: the vertex
+VertexPolytope, shadow, Polytope, Ellipsoid). Every expected value comes from an independent computation: the vertex
 set (corners, all sign combinations of the generators) and Qhull (scipy.spatial.ConvexHull) for
 support, intervals, membership, volume and shadows; HiGHS LPs (Polytope) for the shadow of an
 H-polytope."""
@@ -204,6 +204,69 @@ def test_bad_input_is_refused_with_a_clear_error():
         Zonotope(np.zeros(3), np.eye(3)).reduced(2)
 
 
-def test_ellipsoid_is_still_a_convex_set():
-    """The protocol is structural: Ellipsoid (unchanged here) passes the runtime check."""
-    assert isinstance(Ellipsoid.ball(np.zeros(2), 1.0), ConvexSet)
+def test_ellipsoid_implements_the_protocol():
+    """Ellipsoid against closed forms: support(d) bounds d^T x over 20 000 boundary points and is
+    attained at the maximiser c + S d / sqrt(d^T S d), which lies on the boundary; project(i, j)
+    is the (i, j) block of S; gauge the Mahalanobis^2 (1 on the boundary, 4 at twice the distance)."""
+    rng = np.random.default_rng(11)
+    A = rng.normal(size=(3, 3))
+    E = Ellipsoid(rng.normal(size=3), A @ A.T + 0.1 * np.eye(3))
+    assert isinstance(E, ConvexSet) and E.dim == 3
+    u = rng.normal(size=(20_000, 3))
+    X = E.center + (u / np.linalg.norm(u, axis=1)[:, None]) @ np.linalg.cholesky(E.shape).T
+    for d in rng.normal(size=(5, 3)):
+        assert np.max(X @ d) <= E.support(d) + 1e-12
+        x_star = E.center + E.shape @ d / np.sqrt(d @ E.shape @ d)
+        assert d @ x_star == pytest.approx(E.support(d), rel=1e-12)
+        assert E.gauge(x_star) == pytest.approx(1.0, rel=1e-12)
+    sh = E.project(2, 0)
+    np.testing.assert_array_equal(sh.shape, E.shape[np.ix_([2, 0], [2, 0])])
+    np.testing.assert_allclose(E.gauge(X[:10]), 1.0, rtol=1e-12)
+    assert E.gauge(E.center + 2 * (X[0] - E.center)) == pytest.approx(4.0)
+    B = sh.boundary(50)
+    x, y = B[:, 0], B[:, 1]
+    np.testing.assert_array_equal(B[0], B[-1])
+    assert 0.5 * np.sum(x[:-1] * y[1:] - x[1:] * y[:-1]) > 0
+
+
+def test_polytope_implements_the_protocol():
+    """Polytope (an H-polytope solved by HiGHS LPs) against Qhull of its vertices
+    (HalfspaceIntersection): support and intervals (to LP accuracy), contains, ln volume, the
+    shadow of project(i, j), and boundary() in 2-D; ln volume NaN above MAX_VERTEX_DIM."""
+    rng = np.random.default_rng(12)
+    W = rng.normal(size=(30, 3))
+    P = Polytope(W, W @ rng.normal(size=3) + rng.uniform(-1, 1, 30), 1.0)
+    V = P.vertices()
+    assert isinstance(P, ConvexSet) and P.dim == 3
+    for d in rng.normal(size=(10, 3)):
+        assert P.support(d) == pytest.approx(np.max(V @ d), rel=1e-8, abs=1e-9)
+    lo, hi = P.intervals()
+    np.testing.assert_allclose(lo, V.min(axis=0), rtol=1e-8, atol=1e-9)
+    np.testing.assert_allclose(hi, V.max(axis=0), rtol=1e-8, atol=1e-9)
+    g = V.mean(axis=0)
+    assert np.all(P.contains(V)) and not np.any(P.contains(g + (1 + 1e-6) * (V - g)))
+    assert P.log_volume() == pytest.approx(np.log(ConvexHull(V).volume), rel=1e-10)
+    sh = P.project(2, 1)
+    assert sh.log_volume() == pytest.approx(np.log(ConvexHull(V[:, [2, 1]]).volume), rel=1e-8)
+    assert np.isnan(P.gauge(g))
+    W2 = rng.normal(size=(10, 2))
+    P2 = Polytope(W2, W2 @ rng.normal(size=2), 1.0)
+    B = P2.boundary()
+    x, y = B[:, 0], B[:, 1]
+    assert 0.5 * np.sum(x[:-1] * y[1:] - x[1:] * y[:-1]) == pytest.approx(ConvexHull(P2.vertices()).volume, rel=1e-10)
+    W7 = rng.normal(size=(20, 7))
+    assert np.isnan(Polytope(W7, W7 @ np.ones(7), 1.0).log_volume())
+
+
+def test_gauge_is_one_on_the_boundary():
+    """Box and parallelotope gauges are |T (x - c)|_inf: 0 at the centre, 1 at every vertex, 2 at
+    a vertex pushed to twice its distance; the families without a cheap gauge give NaN."""
+    rng = np.random.default_rng(13)
+    for S, V in _instances(rng, 3):
+        if isinstance(S, Box | Parallelotope):
+            c = S.center
+            assert S.gauge(c) == 0.0
+            np.testing.assert_allclose(S.gauge(V), 1.0, rtol=1e-12)
+            np.testing.assert_allclose(S.gauge(c + 2 * (V - c)), 2.0, rtol=1e-12)
+        else:
+            assert np.all(np.isnan(S.gauge(V)))

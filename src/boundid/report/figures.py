@@ -327,7 +327,7 @@ def projection_2d(
     polytope_vertices_2d : (k, 2) or None
         Points whose convex hull is the projected polytope (e.g. its vertices projected on the
         pair, or support points of the 2-D shadow); drawn filled in grey.
-    ellipsoids : {label: Ellipsoid of dimension 2} (``Ellipsoid.project([i, j])`` of each estimate)
+    ellipsoids : {label: Ellipsoid of dimension 2} (``Ellipsoid.project(i, j)`` of each estimate)
     truth_2d : (2,) or None, marked with a star.
     box : (lo (2,), hi (2,)) or None, e.g. the exact LP bounds of the pair, drawn dashed.
     """

@@ -207,8 +207,8 @@ def _exact_section(page: Page, r: StudyResult, guard: _Guard) -> None:
         with guard("projection", f"({a}, {b})"):
             idx = [names.index(a), names.index(b)]
             pts = shadow_points(ex.polytope, idx) if ex.bounds is not None else None
-            ells = {lab: e.ellipsoid.project(idx) for lab, e in sets.items()}
-            ells.update({f"SDP {k}": v.ellipsoid.project(idx) for k, v in ex.sdp.items()})
+            ells = {lab: e.ellipsoid.project(*idx) for lab, e in sets.items()}
+            ells.update({f"SDP {k}": v.ellipsoid.project(*idx) for k, v in ex.sdp.items()})
             box = ((ex.bounds.lo[idx], ex.bounds.hi[idx]) if ex.bounds is not None else None)
             page.figure(F.projection_2d(pts, ells, m.theta_true[idx], box, (a, b),
                                         units=[m.param_units[i] for i in idx]),

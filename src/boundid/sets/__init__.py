@@ -1,23 +1,27 @@
-"""Layer 1, sets: pure geometry (ellipsoids, polytopes of strips, exact LP/SDP optima)."""
+"""Layer 1, sets: pure geometry (ellipsoids, boxes, zonotopes, polytopes; exact LP/SDP optima).
+
+The SDP ellipsoids (:mod:`boundid.sets.sdp`) need cvxpy, which takes a second to import: their
+names are loaded from here on first use.
+"""
 
 from boundid.sets.box import Box
 from boundid.sets.convex import ConvexSet
 from boundid.sets.ellipsoid import Ellipsoid, log_unit_ball_volume
 from boundid.sets.parallelotope import Parallelotope
 from boundid.sets.polytope import Bounds, Consistency, Polytope
-from boundid.sets.sdp import (
-    SDPResult,
-    VolumeBracket,
-    enclosing_ellipsoid,
-    inner_ellipsoid,
-    john_outer,
-    min_volume_bracket,
-    outer_ellipsoid,
-    step_ellipsoid,
-)
 from boundid.sets.vertex_polytope import VertexPolytope, shadow
 from boundid.sets.zonotope import Zonotope
 
-__all__ = ["Ellipsoid", "log_unit_ball_volume", "Bounds", "Consistency", "Polytope", "SDPResult", "VolumeBracket",
-           "enclosing_ellipsoid", "inner_ellipsoid", "john_outer", "min_volume_bracket", "outer_ellipsoid",
-           "step_ellipsoid", "Box", "ConvexSet", "Parallelotope", "VertexPolytope", "Zonotope", "shadow"]
+_SDP = ("SDPResult", "VolumeBracket", "enclosing_ellipsoid", "inner_ellipsoid", "john_outer", "min_volume_bracket",
+        "outer_ellipsoid", "step_ellipsoid")
+
+__all__ = ["Ellipsoid", "log_unit_ball_volume", "Bounds", "Consistency", "Polytope", "Box", "ConvexSet",
+           "Parallelotope", "VertexPolytope", "Zonotope", "shadow", *_SDP]
+
+
+def __getattr__(name: str):
+    if name in _SDP:
+        from boundid.sets import sdp
+
+        return getattr(sdp, name)
+    raise AttributeError(f"module 'boundid.sets' has no attribute {name!r}")

@@ -55,6 +55,16 @@ class Box:
         d = as_vector(direction, "direction", self.dim)
         return float(d @ self.center + np.abs(d) @ self.half_widths)
 
+    def gauge(self, points) -> np.ndarray | float:
+        """max_j |x_j - c_j| / h_j for each point (<= 1 inside; inf off a flat side)."""
+        X = np.atleast_2d(as_float_array(points, "points"))
+        if X.shape[-1] != self.dim:
+            raise InputError(f"points must have {self.dim} columns, got shape {X.shape}.")
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = np.abs(X - self.center) / self.half_widths
+        g = np.max(np.where(np.abs(X - self.center) == 0, 0.0, r), axis=1)
+        return float(g[0]) if np.ndim(points) == 1 else g
+
     def contains(self, points, rtol: float = 1e-9) -> np.ndarray | bool:
         """Whether each point lies in B, allowing rtol times each side's length (and the rounding
         of the bounds themselves) outside."""

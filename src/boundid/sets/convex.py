@@ -33,6 +33,12 @@ class ConvexSet(Protocol):
         The test allows only for rounding (a relative tolerance of the order of 1e-9 of the set's
         own scale); a point the set excludes by more is outside."""
 
+    def gauge(self, points):
+        """A scale-free measure of where each point lies, <= 1 inside and > 1 outside: the
+        family's own where it is cheap and exact (an ellipsoid's Mahalanobis^2
+        (x - c)^T S^-1 (x - c), a box's or parallelotope's largest normalised coordinate), NaN
+        where the family has none (zonotopes, polytopes). A float for a point (p,), (m,) for (m, p)."""
+
     def log_volume(self) -> float:
         """ln of the p-dimensional volume; -inf for a flat set, NaN where the family cannot say."""
 

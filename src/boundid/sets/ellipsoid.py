@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 from scipy.special import gammaln
 
 from boundid._validation import as_float_array, as_spd, as_vector
 from boundid.errors import InputError
+from boundid.sets._plane import closed, plane, require_2d
 
 
 def log_unit_ball_volume(n: int) -> float:
@@ -79,6 +78,11 @@ class Ellipsoid:
         Z = np.linalg.solve(self._chol, (X - self.center).T)
         return np.sum(Z * Z, axis=0)
 
+    def gauge(self, points) -> np.ndarray | float:
+        """The Mahalanobis^2 (x - c)^T S^-1 (x - c) of each point (<= 1 inside); a float for one point."""
+        d2 = self.mahalanobis2(points)
+        return float(d2[0]) if np.ndim(points) == 1 else d2
+
     def contains(self, points, rtol: float = 1e-9) -> np.ndarray | bool:
         """Whether each point lies in E (vectorised; a single point gives a bool).
 
@@ -105,11 +109,10 @@ class Ellipsoid:
         r = np.sqrt(np.diag(self.shape))
         return self.center - r, self.center + r
 
-    def project(self, indices: Sequence[int]) -> Ellipsoid:
-        """The projection of E on the coordinates ``indices`` (the shadow, for 2-D pictures)."""
-        idx = np.asarray(indices, dtype=int)
-        if idx.ndim != 1 or np.any(idx < 0) or np.any(idx >= self.dim) or len(set(idx)) != len(idx):
-            raise InputError(f"indices must be distinct coordinates in [0, {self.dim}), got {indices}.")
+    def project(self, i: int, j: int) -> Ellipsoid:
+        """The shadow of E on the plane of coordinates (i, j): the 2-D ellipsoid of rows and columns
+        (i, j) of c and S (exact)."""
+        idx = plane(i, j, self.dim)
         return Ellipsoid(self.center[idx], self.shape[np.ix_(idx, idx)])
 
     def scaled(self, k: float) -> Ellipsoid:
@@ -119,11 +122,11 @@ class Ellipsoid:
         return Ellipsoid(self.center, k * k * self.shape)
 
     def boundary(self, n_points: int = 200) -> np.ndarray:
-        """Points on the boundary of a 2-D ellipsoid, shape (n_points, 2), for plotting."""
-        if self.dim != 2:
-            raise InputError(f"boundary() draws 2-D ellipsoids; project() this {self.dim}-D one first.")
-        t = np.linspace(0.0, 2.0 * np.pi, n_points)
-        return self.center + (self._chol @ np.vstack([np.cos(t), np.sin(t)])).T
+        """Points on the boundary of a 2-D ellipsoid, (n_points, 2), counter-clockwise and closed
+        (the last point is the first), for plotting."""
+        require_2d(self.dim, "ellipsoid")
+        t = np.linspace(0.0, 2.0 * np.pi, n_points)[:-1]
+        return closed(self.center + (self._chol @ np.vstack([np.cos(t), np.sin(t)])).T)
 
     def __repr__(self) -> str:
         c = np.array2string(self.center, precision=4)

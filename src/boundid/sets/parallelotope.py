@@ -73,6 +73,11 @@ class Parallelotope(Zonotope):
             raise InputError(f"points must have {self.dim} columns, got shape {X.shape}.")
         return scipy.linalg.lu_solve(self._lu, (X - self.center).T).T
 
+    def gauge(self, points) -> np.ndarray | float:
+        """|T (x - c)|_inf for each point: its largest coordinate in P's unit box (<= 1 inside)."""
+        g = np.max(np.abs(self.normalized(points)), axis=1)
+        return float(g[0]) if np.ndim(points) == 1 else g
+
     def contains(self, points, rtol: float = 1e-9) -> np.ndarray | bool:
         """|T (x - c)|_inf <= 1 + rtol (rtol relative to P's own half-widths), plus the rounding
         of the coordinates themselves, |T| 8 eps (|x| + |c| + sum_k |G_jk|) (it matters only for

@@ -44,7 +44,9 @@ from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError, cKDTree
 
 from boundid._validation import as_bounds, as_float_array, as_matrix, as_regression, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
+from boundid.sets._plane import require_2d
 from boundid.sets._working_set import CHUNK, Block, LPStatusError, WorkingSetLP, sample_levels, strided_sample
+from boundid.sets.vertex_polytope import VertexPolytope, shadow
 
 #: largest dimension for which vertices() and volume() enumerate vertices exactly
 MAX_VERTEX_DIM = 6
@@ -255,6 +257,12 @@ class Polytope:
             nrm = np.linalg.norm(H, axis=1)
             ok &= np.all(X @ (H / nrm[:, None]).T <= h / nrm + atol * (1 + np.abs(h / nrm)), axis=1)
         return bool(ok[0]) if np.ndim(points) == 1 else ok
+
+    def gauge(self, points) -> np.ndarray | float:
+        """NaN for each point (P has no centre of its own to measure from; :meth:`residual_ratio`
+        tells how far a point is from satisfying every strip)."""
+        X = np.atleast_2d(as_float_array(points, "points"))
+        return float("nan") if np.ndim(points) == 1 else np.full(X.shape[0], np.nan)
 
     def as_ranged_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Every constraint as lo_i <= a_i^T theta <= up_i.
@@ -667,6 +675,21 @@ class Polytope:
         """max over P of d^T theta (one LP)."""
         return self.support_point(direction)[0]
 
+    def intervals(self) -> tuple[np.ndarray, np.ndarray]:
+        """The exact parameter bounds (lo, hi) of :meth:`bounds` (2p LPs, cached)."""
+        b = self.bounds()
+        return b.lo.copy(), b.hi.copy()
+
+    def project(self, i: int, j: int) -> VertexPolytope:
+        """The exact shadow of P on the plane (i, j), a polygon (support-point LPs,
+        :func:`boundid.sets.vertex_polytope.shadow`)."""
+        return shadow(self, i, j)
+
+    def boundary(self, n_points: int = 200) -> np.ndarray:
+        """For p = 2: P's vertices, counter-clockwise, closed."""
+        require_2d(self.dim, "polytope")
+        return VertexPolytope(self.vertices()).boundary()
+
     def extent(self, direction) -> tuple[float, float]:
         """(min, max) of d^T theta over P (two LPs)."""
         d = self._direction(direction)
@@ -907,6 +930,13 @@ class Polytope:
             raise SolverError(f"Qhull failed to enumerate the vertices of P: {exc}") from None
         self._vertices = cb + hb * Z
         return self._vertices
+
+    def log_volume(self) -> float:
+        """ln of :meth:`volume` for p <= MAX_VERTEX_DIM (exact, by the vertices), NaN beyond (the
+        protocol's "cannot say": the volume of an H-polytope is #P-hard in general)."""
+        if self.dim > MAX_VERTEX_DIM:
+            return float("nan")
+        return float(np.log(self.volume()))
 
     def volume(self) -> float:
         """Exact volume of P for p <= 6 (ConvexHull of the vertices), in parameter units^p."""

@@ -79,6 +79,11 @@ class VertexPolytope:
         ok = np.all(X @ self.A.T <= self.b + rtol * float(np.max(hi - lo)) + ulp, axis=1)
         return bool(ok[0]) if np.ndim(points) == 1 else ok
 
+    def gauge(self, points) -> np.ndarray | float:
+        """NaN for each point (a polytope has no centre of its own to measure from; use :meth:`contains`)."""
+        X = np.atleast_2d(as_float_array(points, "points"))
+        return float("nan") if np.ndim(points) == 1 else np.full(X.shape[0], np.nan)
+
     def log_volume(self) -> float:
         """ln of the volume (Qhull); -inf for a flat polytope."""
         if self.dim == 1:

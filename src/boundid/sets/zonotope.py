@@ -100,6 +100,11 @@ class Zonotope:
             ok = np.all(np.abs((X - self.center) @ D.T) <= h * (1 + rtol) + ulp @ np.abs(D).T, axis=1)
         return bool(ok[0]) if np.ndim(points) == 1 else ok
 
+    def gauge(self, points) -> np.ndarray | float:
+        """NaN for each point: a zonotope's gauge needs an LP per point (use :meth:`contains`)."""
+        X = np.atleast_2d(as_float_array(points, "points"))
+        return float("nan") if np.ndim(points) == 1 else np.full(X.shape[0], np.nan)
+
     def _facet_normals(self) -> np.ndarray | None:
         """Unit normals (k, p) of the hyperplanes spanned by p - 1 of the (non-zero) generators,
         or None when G is rank deficient or there are more than MAX_FACET_SUBSETS of them."""
