@@ -24,6 +24,7 @@ from boundid.cli import main
 from boundid.errors import ResourceError, SolverError, StudyError
 from boundid.experiments.recording import Recording, write_recording
 from boundid.report import output
+from boundid.sets import Polytope
 from boundid.studies import runner
 from boundid.studies.config import load_study
 
@@ -374,10 +375,8 @@ def test_failing_estimator_and_projection_are_recorded_and_the_page_written(tmp_
     def no_shadow(*args, **kwargs):
         raise SolverError("HiGHS status 'time limit reached'")
 
-    import boundid.report.study_page as study_page
-
     monkeypatch.setattr(runner, "run_estimator", broken)
-    monkeypatch.setattr(study_page, "shadow_points", no_shadow)
+    monkeypatch.setattr(Polytope, "project", no_shadow)
     text = BASE + '[exact]\nregression = "filtered_dynamic"\ne_max = 6.0\nprojections = [["th1", "th2"]]\n'
     out = tmp_path / "out"
     assert _cli(["run", _study(tmp_path, text), "--out", str(out), "--quiet"]) == 0

@@ -8,8 +8,8 @@ from scipy.optimize import linprog
 from scipy.spatial import HalfspaceIntersection
 
 from boundid.errors import InputError
-from boundid.estimators import OBE, Certificate, Estimate, validate
-from boundid.sets import Ellipsoid, Polytope, enclosing_ellipsoid
+from boundid.estimators import OBE, BoxRecursion, Certificate, Estimate, PolytopeRecursion, validate
+from boundid.sets import Box, Ellipsoid, Polytope, enclosing_ellipsoid
 
 
 def _problem(seed, p, N, e=0.5):
@@ -59,7 +59,7 @@ def test_obe_estimate_certified_against_independent_references(p):
     np.testing.assert_allclose(cert.lp_lo, lo, atol=1e-7)
     np.testing.assert_allclose(cert.lp_hi, hi, atol=1e-7)
     V = _qhull_vertices(W, y, e)
-    assert np.all(est.ellipsoid.contains(V, rtol=1e-8))
+    assert np.all(est.set.contains(V, rtol=1e-8))
     assert cert.contains_polytope and cert.vertex_kind == "all" and cert.n_outside == 0
     assert cert.n_vertices >= p + 1
     assert np.all(cert.width_ratio >= 1 - 1e-9)
@@ -75,11 +75,11 @@ def test_exact_optimum_has_zero_excess_and_a_shrunk_ellipsoid_fails():
     P = Polytope.from_strips(W, y, e)
     opt = enclosing_ellipsoid(P.vertices()).ellipsoid
     cert = validate(opt, P)
-    assert cert.method == "ellipsoid" and cert.contains_polytope
+    assert cert.method == "Ellipsoid" and cert.contains_polytope
     assert abs(cert.excess_outer) <= 1e-6
     assert cert.excess_polytope > 0 and cert.excess_inner > cert.excess_polytope
     bad = validate(opt.scaled(0.9), P, outer=opt, volumes=True)
-    assert not bad.contains_polytope and bad.n_outside >= 1 and bad.max_mahalanobis2 > 1.1
+    assert not bad.contains_polytope and bad.n_outside >= 1 and bad.max_gauge > 1.1
     assert bad.excess_outer == pytest.approx(np.log(0.9), rel=1e-9)
     assert "NO" in bad.summary()
 
@@ -122,7 +122,7 @@ def test_bad_input_raises_input_error():
     with pytest.raises(InputError, match="dimension"):
         validate(Ellipsoid.ball(np.zeros(3), 1.0), P, volumes=False)
     point = Estimate("OLS", np.zeros(2), None, (np.zeros(2), np.zeros(2)), "point")
-    with pytest.raises(InputError, match="no ellipsoid"):
+    with pytest.raises(InputError, match="no set"):
         validate(point, P)
     with pytest.raises(InputError):
         validate(np.eye(2), P)
@@ -143,10 +143,38 @@ def test_containment_verdict_near_the_boundary():
         r = np.sqrt(np.max(np.sum((V - c) ** 2, axis=1)))
         ball = Ellipsoid.ball(c, r)
         exact = validate(ball, P, volumes=False)
-        assert exact.contains_polytope and abs(exact.max_mahalanobis2 - 1.0) < 1e-12
+        assert exact.contains_polytope and abs(exact.max_gauge - 1.0) < 1e-12
         shrunk = validate(ball.scaled(1 - 1e-4), P, volumes=False)
         assert not shrunk.contains_polytope and shrunk.n_outside >= 1
-        assert shrunk.max_mahalanobis2 == pytest.approx(1 / (1 - 1e-4) ** 2, rel=1e-9)
+        assert shrunk.max_gauge == pytest.approx(1 / (1 - 1e-4) ** 2, rel=1e-9)
         grown = validate(ball.scaled(1 + 1e-6), P, volumes=False)
         assert grown.contains_polytope and grown.n_outside == 0
-        assert grown.max_mahalanobis2 <= 1 / (1 + 1e-6) ** 2 + 1e-12
+        assert grown.max_gauge <= 1 / (1 + 1e-6) ** 2 + 1e-12
+
+
+@pytest.mark.parametrize("family", ["box", "polytope"])
+def test_sets_of_other_families_are_certified_through_the_protocol(family):
+    """Reference: scipy HalfspaceIntersection vertices and linprog bounds. A box recursion's box
+    and the exact polytope recursion's polytope (p = 3) contain every vertex of P, their support
+    is at least P's along every axis; their gauge: |T(x - c)|_inf <= 1 (box), NaN (polytope); the
+    exact recursion's widths are the LP widths and its ln volume P's. The LP box itself passes,
+    shrunk by 1e-3 it fails."""
+    theta, W, y, e = _problem(9, 3, 30)
+    prior = Box.from_center(np.zeros(3), 10.0)
+    make = BoxRecursion if family == "box" else PolytopeRecursion
+    est = make(3, prior=prior).fit(W, y, e)
+    cert = validate(est, Polytope.from_strips(W, y, e))
+    V = _qhull_vertices(W, y, e)
+    assert np.all(est.set.contains(V, rtol=1e-8))
+    assert cert.contains_polytope and cert.support_ok and cert.n_outside == 0
+    assert np.all(cert.width_ratio >= 1 - 1e-7)
+    if family == "box":
+        assert cert.max_gauge <= 1 + 1e-9
+        c, h = 0.5 * (cert.lp_lo + cert.lp_hi), 0.5 * (cert.lp_hi - cert.lp_lo)
+        exact = validate(Box(c - h, c + h), Polytope.from_strips(W, y, e), volumes=False)
+        bad = validate(Box(c - (1 - 1e-3) * h, c + (1 - 1e-3) * h), Polytope.from_strips(W, y, e), volumes=False)
+        assert exact.contains_polytope and not bad.contains_polytope and not bad.support_ok
+    else:
+        assert np.isnan(cert.max_gauge)
+        np.testing.assert_allclose(cert.width_ratio, 1.0, atol=1e-6)
+        assert cert.excess_polytope == pytest.approx(0.0, abs=1e-6)

@@ -24,17 +24,17 @@ def test_ols_equals_lstsq_and_closed_forms():
     np.testing.assert_allclose(est.center, x, rtol=1e-12, atol=1e-14)
     s2 = rss[0] / (N - p)
     cov = s2 * np.linalg.inv(W.T @ W)
-    np.testing.assert_allclose(est.info["cov"], cov, rtol=1e-10)
+    np.testing.assert_allclose(est.statistics.cov, cov, rtol=1e-10)
     se = np.sqrt(np.diag(cov))
-    np.testing.assert_allclose(est.info["std_err"], se, rtol=1e-10)
-    np.testing.assert_allclose(est.info["rel_std_pct"], 100 * se / np.abs(x), rtol=1e-10)
+    np.testing.assert_allclose(est.statistics.std_err, se, rtol=1e-10)
+    np.testing.assert_allclose(est.statistics.rel_std_pct, 100 * se / np.abs(x), rtol=1e-10)
     t = stats.t.ppf(0.95, N - p)
     np.testing.assert_allclose(est.intervals[0], x - t * se, rtol=1e-10)
     np.testing.assert_allclose(est.intervals[1], x + t * se, rtol=1e-10)
-    np.testing.assert_allclose(est.ellipsoid.shape, stats.chi2.ppf(0.9, p) * cov, rtol=1e-10)
-    assert est.info["condition_number"] == pytest.approx(np.linalg.cond(W), rel=1e-10)
-    assert est.kind == "statistical" and est.info["guaranteed"] is False and est.level == 0.9
-    assert est.info["dof"] == N - p and est.info["n_samples"] == N and est.info["time_s"] >= 0
+    np.testing.assert_allclose(est.set.shape, stats.chi2.ppf(0.9, p) * cov, rtol=1e-10)
+    assert est.statistics.condition_number == pytest.approx(np.linalg.cond(W), rel=1e-10)
+    assert est.kind == "statistical" and est.level == 0.9
+    assert est.statistics.dof == N - p and est.n_samples == N and est.time_s >= 0
     assert est.names == ("a", "b", "c", "d") and "std_err" in est.to_frame().columns
 
 
@@ -48,13 +48,14 @@ def test_wls_equals_ols_on_row_scaled_problem():
     sig = np.array([np.sqrt(np.linalg.lstsq(W[groups == g], y[groups == g])[1][0] / (30 - 3)) for g in range(3)])
     np.testing.assert_allclose(est.info["sigma_group_values"], sig, rtol=1e-10)
     assert est.info["sigma_groups"] == pytest.approx({0: sig[0], 1: sig[1], 2: sig[2]}, rel=1e-10)
+    assert est.statistics.noise_variance == pytest.approx({0: sig[0] ** 2, 1: sig[1] ** 2, 2: sig[2] ** 2}, rel=1e-10)
     Ws, ys = W / sig[groups][:, None], y / sig[groups]
     ref = ols(Ws, ys, names=["m", "c", "k"])
     np.testing.assert_allclose(est.center, np.linalg.lstsq(Ws, ys, rcond=None)[0], rtol=1e-11)
-    np.testing.assert_allclose(est.info["cov"], ref.info["cov"], rtol=1e-10)
+    np.testing.assert_allclose(est.statistics.cov, ref.statistics.cov, rtol=1e-10)
     np.testing.assert_allclose(est.intervals, ref.intervals, rtol=1e-10)
-    assert est.info["condition_number"] == pytest.approx(np.linalg.cond(Ws), rel=1e-10)
-    assert est.method == "WLS" and est.kind == "statistical" and est.info["guaranteed"] is False
+    assert est.statistics.condition_number == pytest.approx(np.linalg.cond(Ws), rel=1e-10)
+    assert est.method == "WLS" and est.kind == "statistical"
 
 
 def test_wls_finds_group_noise_levels():
@@ -67,7 +68,7 @@ def test_wls_finds_group_noise_levels():
     assert est.info["sigma_groups"][-1] == pytest.approx(0.1, rel=0.1)
     assert est.info["sigma_groups"][3] == pytest.approx(1.0, rel=0.1)
     # weighting helps: the WLS standard errors are smaller than the OLS ones
-    assert np.all(est.info["std_err"] < ols(W, y).info["std_err"])
+    assert np.all(est.statistics.std_err < ols(W, y).statistics.std_err)
 
 
 def test_wls_joint_rows_missing_parameters():

@@ -11,7 +11,7 @@ from scipy.optimize import minimize_scalar
 from boundid.errors import InfeasibleDataError, InputError, SolverError
 from boundid.estimators import OBE
 from boundid.estimators import _obe_kernels as K
-from boundid.sets import Ellipsoid, Polytope, step_ellipsoid
+from boundid.sets import Box, Ellipsoid, Polytope, step_ellipsoid
 
 CRITERIA = ("volume", "trace", "dasgupta-huang")
 FORMS = ("standard", "factorized")
@@ -98,9 +98,9 @@ def test_standard_and_factorized_forms_agree(criterion):
     theta, W, y, e = _problem(rng, 5, 300)
     a = OBE(5, shape0=50.0, form="standard", criterion=criterion).fit(W, y, e)
     b = OBE(5, shape0=50.0, form="factorized", criterion=criterion).fit(W, y, e)
-    assert a.info["n_updates"] == b.info["n_updates"] > 10
-    scale = np.abs(a.ellipsoid.shape).max()
-    assert np.abs(a.ellipsoid.shape - b.ellipsoid.shape).max() <= 1e-8 * scale
+    assert a.n_updates == b.n_updates > 10
+    scale = np.abs(a.set.shape).max()
+    assert np.abs(a.set.shape - b.set.shape).max() <= 1e-8 * scale
     assert np.abs(a.center - b.center).max() <= 1e-8 * np.sqrt(scale)
     np.testing.assert_allclose(a.history.log_volumes, b.history.log_volumes, rtol=1e-9)
     assert a.info["sigma"] == pytest.approx(b.info["sigma"], rel=1e-8)
@@ -132,7 +132,7 @@ def test_factorized_form_survives_ill_conditioning_where_standard_cannot_vouch(s
     est = fac.fit(W, y, e)
     assert np.all(np.isfinite(fac._X)) and np.all(np.diag(fac._X) > 0)
     assert fac.mahalanobis2(theta)[0] <= 1.0
-    assert est.kind == "unverified" and "Skeel" in est.info["unverified_reason"]
+    assert est.kind == "unverified" and "Skeel" in est.unverified_reason
     std = OBE(6, shape0=100.0, form="standard", record_every=500)
     try:
         assert std.fit(W, y, e).kind == "unverified"
@@ -291,10 +291,10 @@ def test_clipped_volume_step_is_the_exact_one_step_optimum(form):
             y = m + r * u + e if case == 1 else m - r * u - e
         ref = step_ellipsoid(Ellipsoid(c, S), w, y, e).ellipsoid
         est = OBE(n, center0=c, shape0=S, form=form).update(w, y, e)
-        assert abs(est.ellipsoid.log_volume() - ref.log_volume()) <= 1e-6, (k, case)
+        assert abs(est.set.log_volume() - ref.log_volume()) <= 1e-6, (k, case)
         scale = np.sqrt(np.max(np.diag(ref.shape)))
         np.testing.assert_allclose(est.center, ref.center, atol=1e-4 * scale)
-        n_cut += est.info["n_updates"]
+        n_cut += est.n_updates
     assert n_cut >= 16
 
 
@@ -312,7 +312,7 @@ def test_final_ellipsoid_contains_every_vertex_of_the_exact_polytope(p, form):
         assert np.all(np.sum(V**2, axis=1) < shape0)  # P inside E0, so E_N must contain P
         for crit in CRITERIA:
             est = OBE(p, shape0=shape0, form=form, criterion=crit).fit(W, y, e)
-            assert np.all(est.ellipsoid.contains(V, rtol=1e-8)), (trial, crit)
+            assert np.all(est.set.contains(V, rtol=1e-8)), (trial, crit)
 
 
 def test_p14_final_ellipsoid_contains_the_lp_bound_vertices():
@@ -323,7 +323,7 @@ def test_p14_final_ellipsoid_contains_the_lp_bound_vertices():
     b = Polytope.from_strips(W, y, e).bounds()
     for form in FORMS:
         est = OBE(14, shape0=1e4, form=form).fit(W, y, e)
-        assert np.all(est.ellipsoid.contains(b.vertices(), rtol=1e-8))
+        assert np.all(est.set.contains(b.vertices(), rtol=1e-8))
         lo, hi = est.intervals
         assert np.all(lo <= b.lo + 1e-9) and np.all(hi >= b.hi - 1e-9)
 
@@ -337,11 +337,11 @@ def test_selective_skip_of_a_strip_containing_the_ellipsoid():
         w = np.array([1.0, 1.0, 1.0])
         half = np.sqrt(w @ np.diag([1.0, 4.0, 9.0]) @ w)
         est = obe.update(w, 6.0 + 0.1, half + 0.2)
-        assert est.info["n_updates"] == 0 and est.info["n_skipped"] == 1
-        np.testing.assert_allclose(est.ellipsoid.shape, np.diag([1.0, 4.0, 9.0]), rtol=1e-12)
+        assert est.n_updates == 0 and est.n_skipped == 1
+        np.testing.assert_allclose(est.set.shape, np.diag([1.0, 4.0, 9.0]), rtol=1e-12)
         est = obe.update(w, 6.0 + 0.1, 0.5 * half)
-        assert est.info["n_updates"] == 1 and est.info["n_samples"] == 2
-        assert est.ellipsoid.log_volume() < np.log(4 / 3 * np.pi * 6.0)
+        assert est.n_updates == 1 and est.n_samples == 2
+        assert est.set.log_volume() < np.log(4 / 3 * np.pi * 6.0)
 
 
 def test_outliers_are_recorded_and_skipped_or_raise():
@@ -356,7 +356,7 @@ def test_outliers_are_recorded_and_skipped_or_raise():
         np.testing.assert_array_equal(est.outliers, [20, 45])
         assert np.all(np.abs(est.outlier_residuals) > 900)
         assert est.contains(theta)
-        np.linalg.cholesky(est.ellipsoid.shape)
+        np.linalg.cholesky(est.set.shape)
         obe = OBE(3, shape0=100.0, form=form, on_outlier="raise")
         with pytest.raises(InfeasibleDataError, match="observation 20"):
             obe.fit(W, y, e)
@@ -364,16 +364,17 @@ def test_outliers_are_recorded_and_skipped_or_raise():
         assert obe.estimate().contains(theta)
 
 
-def test_fit_continues_and_update_equals_fit():
-    """Second route: fitting in two batches, or row by row with update(), gives the batch result
-    (same arithmetic, so equal to rounding); history indices are global."""
+def test_partial_fit_continues_and_update_equals_fit():
+    """Second route: fit then partial_fit, or row by row with update(), gives the batch result
+    (same arithmetic, so equal to rounding); history indices are global; a second fit starts
+    again from E0 (equal to a fresh estimator's)."""
     rng = np.random.default_rng(6)
     theta, W, y, e = _problem(rng, 4, 50)
     for form in FORMS:
         whole = OBE(4, shape0=100.0, form=form, record_every=7).fit(W, y, e)
         parts = OBE(4, shape0=100.0, form=form, record_every=7)
         parts.fit(W[:23], y[:23], e[:23])
-        two = parts.fit(W[23:], y[23:], e[23:])
+        two = parts.partial_fit(W[23:], y[23:], e[23:])
         one = OBE(4, shape0=100.0, form=form, record_every=7)
         for k in range(50):
             last = one.update(W[k], y[k], e[k])
@@ -381,18 +382,22 @@ def test_fit_continues_and_update_equals_fit():
             np.testing.assert_allclose(other.center, whole.center, rtol=1e-12, atol=1e-14)
             # the computed sets agree to rounding; the reported ones are inflated by each run's own
             # rounding bound (inflation ~1e-13 here), which may differ in its last digits
-            np.testing.assert_allclose(other.ellipsoid.shape / (1 + other.info["inflation"]),
-                                       whole.ellipsoid.shape / (1 + whole.info["inflation"]), rtol=1e-12, atol=1e-16)
-            assert abs(other.info["inflation"] - whole.info["inflation"]) < 1e-10
-            assert other.info["n_updates"] == whole.info["n_updates"]
+            np.testing.assert_allclose(other.set.shape / (1 + other.inflation),
+                                       whole.set.shape / (1 + whole.inflation), rtol=1e-12, atol=1e-16)
+            assert abs(other.inflation - whole.inflation) < 1e-10
+            assert other.n_updates == whole.n_updates
         assert list(whole.history.index) == [6, 13, 20, 27, 34, 41, 48, 49]
         assert set(whole.history.index) <= set(two.history.index)
+        again = parts.fit(W, y, e)
+        np.testing.assert_array_equal(again.center, whole.center)
+        np.testing.assert_array_equal(again.set.shape, whole.set.shape)
+        assert list(again.history.index) == list(whole.history.index)
 
 
-def test_from_prior_circumscribes_the_box():
-    """E0 of from_prior passes through the box corners (closed form: corner Mahalanobis = 1)."""
-    obe = OBE.from_prior([1.0, -2.0, 0.5], [0.1, 2.0, 5.0], names=["a", "b", "c"])
-    E = obe.estimate().ellipsoid
+def test_box_prior_is_circumscribed():
+    """E0 of a box prior passes through the box corners (closed form: corner Mahalanobis = 1)."""
+    obe = OBE(3, prior=Box.from_center([1.0, -2.0, 0.5], [0.1, 2.0, 5.0]), names=["a", "b", "c"])
+    E = obe.estimate().set
     corners = np.array([[1.0 + s1 * 0.1, -2.0 + s2 * 2.0, 0.5 + s3 * 5.0]
                         for s1 in (-1, 1) for s2 in (-1, 1) for s3 in (-1, 1)])
     np.testing.assert_allclose(E.mahalanobis2(corners), 1.0, rtol=1e-12)
@@ -401,16 +406,18 @@ def test_from_prior_circumscribes_the_box():
 
 
 def test_estimate_reports_counts_and_sigma():
-    """info holds the documented keys; counts add up; the ellipsoid is c, sigma M^-1."""
+    """The typed fields and info hold the documented values; counts add up; the ellipsoid is
+    c, sigma M^-1."""
     rng = np.random.default_rng(8)
     theta, W, y, e = _problem(rng, 3, 100)
     obe = OBE(3, shape0=100.0, criterion="trace")
     est = obe.fit(W, y, e)
     info = est.info
-    for key in ("n_samples", "n_updates", "n_skipped", "time_s", "criterion", "form", "sigma"):
+    for key in ("criterion", "form", "sigma"):
         assert key in info
-    assert info["n_samples"] == 100 == info["n_updates"] + info["n_skipped"] + est.outliers.size
-    np.testing.assert_allclose(est.ellipsoid.shape, info["sigma"] * np.linalg.inv(obe.information()), rtol=1e-9)
+    assert est.time_s > 0
+    assert est.n_samples == 100 == est.n_updates + est.n_skipped + est.n_outliers
+    np.testing.assert_allclose(est.set.shape, info["sigma"] * np.linalg.inv(obe.information()), rtol=1e-9)
     assert est.method == "OBE-factorized (trace)"
     assert "OBE" in est.summary()
 
@@ -436,7 +443,8 @@ def test_bad_input_raises_input_error(call):
 @pytest.mark.parametrize(
     "kwargs",
     [{"criterion": "det"}, {"form": "qr"}, {"on_outlier": "ignore"}, {"record_every": 0},
-     {"alpha_max": 1.0}, {"shape0": -1.0}, {"center0": [1.0, 2.0]}, {"names": ["a"]}],
+     {"alpha_max": 1.0}, {"shape0": -1.0}, {"center0": [1.0, 2.0]}, {"names": ["a"]},
+     {"prior": Box(np.zeros(2), np.ones(2))}, {"prior": Box(np.zeros(3), np.ones(3)), "shape0": 1.0}],
 )
 def test_bad_options_raise_input_error(kwargs):
     """Unknown options and bad priors -> InputError naming the argument."""

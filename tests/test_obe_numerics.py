@@ -162,7 +162,7 @@ def test_history_on_update_steps_is_complete(form):
     sparse = OBE(4, shape0=100.0, form=form).fit(W, y, 0.3)
     full = OBE(4, shape0=100.0, form=form, record_every=1).fit(W, y, 0.3)
     hs, hf = sparse.history, full.history
-    assert len(hs) == sparse.info["n_updates"] + (0 if hs.index[-1] == 399 and 399 in hs.index[:-1] else 1)
+    assert len(hs) == sparse.n_updates + (0 if hs.index[-1] == 399 and 399 in hs.index[:-1] else 1)
     assert len(hs) < len(hf) == 400
     np.testing.assert_array_equal(hs.centers, hf.centers[hs.index])
     np.testing.assert_array_equal(hs.log_volumes, hf.log_volumes[hs.index])

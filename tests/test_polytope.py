@@ -45,7 +45,7 @@ def test_bounds_equal_vertex_extremes(p, N, seed):
     scale = np.abs(V).max()
     assert np.allclose(b.lo, V.min(axis=0), atol=1e-7 * scale, rtol=0)
     assert np.allclose(b.hi, V.max(axis=0), atol=1e-7 * scale, rtol=0)
-    assert np.all(P.contains(b.vertices(), atol=1e-8))
+    assert np.all(P.contains(b.vertices(), rtol=1e-8))
     assert np.allclose(np.diag(b.argmin), b.lo) and np.allclose(np.diag(b.argmax), b.hi)
     assert np.all(b.lo <= theta) and np.all(theta <= b.hi)
     mine = P.vertices()
@@ -164,7 +164,7 @@ def test_nonredundant_matches_facets():
     for k in keep[:5]:
         rest = np.setdiff1d(np.arange(len(y)), [k])
         Vr = Polytope.from_strips(W[rest], y[rest], e[rest]).vertices()
-        assert not np.all(P.contains(Vr, atol=1e-9))
+        assert not np.all(P.contains(Vr, rtol=1e-9))
 
 
 def test_tightened_extent_support():
@@ -228,4 +228,4 @@ def test_support_point_is_a_maximiser():
     for d in rng.normal(size=(5, 3)):
         v, x = P.support_point(d)
         assert v == pytest.approx(np.max(V @ d), rel=1e-9, abs=1e-9)
-        assert d @ x == pytest.approx(v, rel=1e-9, abs=1e-9) and P.contains(x, atol=1e-8)
+        assert d @ x == pytest.approx(v, rel=1e-9, abs=1e-9) and P.contains(x, rtol=1e-8)

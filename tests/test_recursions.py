@@ -101,7 +101,7 @@ def _misses_stepwise(make, p, seed, mode):
     outliers declared). Adversarial errors sit at the bound on the side that puts the truth on
     the cutting face: sign(w^T theta - w^T c) with c the current set's centre."""
     theta, W, e, c0, h0, u = _problem(seed, p, mode)
-    est = make(p, center0=c0, half_widths0=h0)
+    est = make(p, prior=Box.from_center(c0, h0))
     center = est.prior.center
     misses = 0
     for k in range(W.shape[0]):
@@ -156,7 +156,7 @@ def test_final_set_contains_the_exact_feasible_polytope(family, p):
     W = rng.normal(size=(N, p))
     e = np.full(N, 0.3)
     y = W @ theta + rng.uniform(-1, 1, N) * e
-    est = FAMILIES[family](p, half_widths0=5.0).fit(W, y, e)
+    est = FAMILIES[family](p, prior=Box.from_center(np.zeros(p), 5.0)).fit(W, y, e)
     P = Polytope(W, y, e, box=(-5 * np.ones(p), 5 * np.ones(p)))
     assert np.all(est.set.contains(P.vertices()))
     b = P.bounds()
@@ -182,7 +182,7 @@ def test_box_step_is_the_exact_interval_hull(p):
         np.testing.assert_allclose(nlo, V.min(axis=0), atol=tol.max())
         np.testing.assert_allclose(nhi, V.max(axis=0), atol=tol.max())
         assert np.all(nlo <= V.min(axis=0) + 1e-13) and np.all(nhi >= V.max(axis=0) - 1e-13)
-        est = BoxRecursion(p, center0=0.5 * (lo + hi), half_widths0=0.5 * (hi - lo)).fit(w[None], [y], e)
+        est = BoxRecursion(p, prior=Box(lo, hi)).fit(w[None], [y], e)
         np.testing.assert_allclose(est.intervals[0], nlo, rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(est.intervals[1], nhi, rtol=1e-12, atol=1e-12)
 
@@ -281,7 +281,7 @@ def test_exact_polytope_step_has_the_vertices_of_the_intersection(p):
         W = rng.normal(size=(N, p))
         e = rng.uniform(0.2, 1.0, N)
         y = W @ theta + rng.uniform(-1, 1, N) * e
-        rec = PolytopeRecursion(p, half_widths0=3.0)
+        rec = PolytopeRecursion(p, prior=Box.from_center(np.zeros(p), 3.0))
         rec.fit(W[:-1], y[:-1], e[:-1])
         est = rec.update(W[-1], y[-1], e[-1])
         A = np.vstack([np.eye(p), -np.eye(p)] + [_strip_rows(W[k], y[k], e[k])[0] for k in range(N)])
@@ -302,7 +302,7 @@ def test_exact_polytope_recursion_gives_the_lp_bounds(p):
     theta = rng.normal(size=p)
     W = rng.normal(size=(N, p))
     y = W @ theta + rng.uniform(-0.5, 0.5, N)
-    est = PolytopeRecursion(p, half_widths0=10.0).fit(W, y, 0.5)
+    est = PolytopeRecursion(p, prior=Box.from_center(np.zeros(p), 10.0)).fit(W, y, 0.5)
     b = Polytope(W, y, 0.5, box=(-10 * np.ones(p), 10 * np.ones(p))).bounds()
     scale = (b.hi - b.lo).max()
     np.testing.assert_allclose(est.intervals[0], b.lo, atol=1e-9 * scale)
@@ -321,12 +321,12 @@ def test_limited_polytope_with_every_strip_kept_is_the_batch_lp():
     y = W @ theta + rng.uniform(-0.5, 0.5, N)
     P = Polytope(W, y, 0.5, box=(-10 * np.ones(p), 10 * np.ones(p)))
     b = P.bounds()
-    est = LimitedPolytopeRecursion(p, half_widths0=10.0, max_strips=N, block=N).fit(W, y, 0.5)
+    est = LimitedPolytopeRecursion(p, prior=Box.from_center(np.zeros(p), 10.0), max_strips=N, block=N).fit(W, y, 0.5)
     guard = 1e-7 * (10.0 + (b.hi - b.lo).max())   # LP_GUARD (1e-8) of the widths, doubled, and spare
     np.testing.assert_allclose(est.intervals[0], b.lo, atol=guard)
     np.testing.assert_allclose(est.intervals[1], b.hi, atol=guard)
     assert np.all(est.intervals[0] <= b.lo) and np.all(est.intervals[1] >= b.hi)
-    small = LimitedPolytopeRecursion(p, half_widths0=10.0, max_strips=p, block=20).fit(W, y, 0.5)
+    small = LimitedPolytopeRecursion(p, prior=Box.from_center(np.zeros(p), 10.0), max_strips=p, block=20).fit(W, y, 0.5)
     assert np.all(small.intervals[0] <= b.lo + 1e-12) and np.all(small.intervals[1] >= b.hi - 1e-12)
     assert np.all(small.set.contains(P.vertices())) and small.info["n_strips_kept"] == p
 
@@ -353,15 +353,15 @@ def test_compiled_loops_match_the_numpy_steps(p):
         st, c, G, _ = parallelotope_step(c, G, W[k], y[k], e[k])
         n_par += st == K.UPDATE
         st, cz, Gz, _ = zonotope_step(cz, Gz, W[k], y[k], e[k], 2 * p)
-    est = BoxRecursion(p, half_widths0=h0).fit(W, y, e)
+    est = BoxRecursion(p, prior=Box.from_center(np.zeros(p), h0)).fit(W, y, e)
     np.testing.assert_allclose(est.intervals, (lo, hi), rtol=1e-9, atol=1e-12)
-    assert est.info["n_updates"] == n_box
-    est = ParallelotopeRecursion(p, half_widths0=h0).fit(W, y, e)
+    assert est.n_updates == n_box
+    est = ParallelotopeRecursion(p, prior=Box.from_center(np.zeros(p), h0)).fit(W, y, e)
     np.testing.assert_allclose(est.set.center, c, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(est.set.generators, G, rtol=1e-9, atol=1e-12)
-    assert est.info["n_updates"] == n_par
+    assert est.n_updates == n_par
     assert est.history.log_volumes[-1] == pytest.approx(Parallelotope(c, G).log_volume(), rel=1e-9)
-    est = ZonotopeRecursion(p, half_widths0=h0).fit(W, y, e)
+    est = ZonotopeRecursion(p, prior=Box.from_center(np.zeros(p), h0)).fit(W, y, e)
     np.testing.assert_allclose(est.set.center, cz, rtol=1e-9, atol=1e-12)
     ref = Zonotope(cz, Gz)   # same set; the order of (near-)equal generators may differ
     for d in rng.normal(size=(50, p)):
@@ -395,25 +395,25 @@ def test_fit_restarts_and_partial_fit_continues(family):
     assert last.history.index.tolist() == [3, 7, 10, 11, 15, 19, 23, 27, 28, 29]
     common = np.isin(last.history.index, first.history.index)
     np.testing.assert_allclose(last.history.centers[common], first.history.centers, rtol=1e-12)
-    assert first.info["n_samples"] == 30 and first.kind == "guaranteed"
+    assert first.n_samples == 30 and first.kind == "guaranteed"
 
 
 @pytest.mark.parametrize("family", list(FAMILIES))
 def test_estimate_holds_the_set(family):
-    """Estimate.set is the family's ConvexSet; Estimate.ellipsoid is that set when it is an
-    ellipsoid, else None; the OBE's Estimate keeps its ellipsoid as its set."""
+    """Estimate.set is the family's ConvexSet (an ellipsoid for the OBE variants and the OBE); its
+    intervals are the Estimate's (the limited polytope reports its padded LP box, which holds them)."""
     theta, W, y, e = _data(1)
-    est = FAMILIES[family](3, half_widths0=5.0).fit(W, y, e)
+    est = FAMILIES[family](3, prior=Box.from_center(np.zeros(3), 5.0)).fit(W, y, e)
     assert est.contains(theta)
-    if family in ("boxed_obe", "windowed_obe"):
-        assert isinstance(est.set, Ellipsoid) and est.ellipsoid is est.set
+    assert isinstance(est.set, ConvexSet)
+    assert isinstance(est.set, Ellipsoid) == (family in ("boxed_obe", "windowed_obe"))
+    lo, hi = est.set.intervals()
+    if family == "limited":
+        assert np.all(est.intervals[0] <= lo + 1e-12) and np.all(hi <= est.intervals[1] + 1e-12)
     else:
-        assert est.ellipsoid is None and est.set is not None
-    if family != "limited":   # Polytope gains the protocol methods with the sets rewrite
-        assert isinstance(est.set, ConvexSet)
-        np.testing.assert_allclose(est.intervals, est.set.intervals(), rtol=1e-12)
+        np.testing.assert_allclose(est.intervals, (lo, hi), rtol=1e-12)
     obe = OBE(3, shape0=100.0).fit(W, y, e)
-    assert obe.set is obe.ellipsoid and "ln volume" in obe.summary()
+    assert isinstance(obe.set, Ellipsoid) and "ln volume" in obe.summary()
 
 
 @pytest.mark.parametrize("family", ["box", "parallelotope", "zonotope", "polytope", "limited", "boxed_obe"])
@@ -422,10 +422,10 @@ def test_outliers_are_recorded_or_raised(family):
     theta, W, y, e = _data(2)
     y = y.copy()
     y[20] += 1e4
-    est = FAMILIES[family](3, half_widths0=5.0).fit(W, y, e)
+    est = FAMILIES[family](3, prior=Box.from_center(np.zeros(3), 5.0)).fit(W, y, e)
     assert est.outliers.tolist() == [20] and est.contains(theta)
     with pytest.raises(InfeasibleDataError, match="observation 20"):
-        FAMILIES[family](3, half_widths0=5.0, on_outlier="raise").fit(W, y, e)
+        FAMILIES[family](3, prior=Box.from_center(np.zeros(3), 5.0), on_outlier="raise").fit(W, y, e)
 
 
 def test_bad_options_are_refused():
@@ -433,8 +433,10 @@ def test_bad_options_are_refused():
         PolytopeRecursion(5)
     with pytest.raises(InputError, match="order"):
         ZonotopeRecursion(3, order=1)
-    with pytest.raises(InputError, match="half_widths0"):
-        BoxRecursion(3, half_widths0=[1.0, 0.0, 1.0])
+    with pytest.raises(InputError, match="half-width > 0"):
+        BoxRecursion(3, prior=Box.from_center(np.zeros(3), [1.0, 0.0, 1.0]))
+    with pytest.raises(InputError, match="prior once"):
+        BoxRecursion(3, prior=Box.from_center(np.zeros(3), 1.0), shape0=4.0)
     with pytest.raises(InputError, match="3 columns"):
         BoxRecursion(3).fit(np.ones((4, 2)), np.ones(4), 1.0)
     with pytest.raises(InputError, match="max_strips"):

@@ -36,7 +36,7 @@ from boundid.report import (
     widths,
     write_index,
 )
-from boundid.sets import Ellipsoid
+from boundid.sets import Box, Ellipsoid, VertexPolytope
 
 NAMES = ["m_1", "I^2", "fv"]
 TRUTH = np.array([2.0, 0.5, -0.1])
@@ -53,7 +53,7 @@ def _estimate(label, radius=0.3, kind="guaranteed"):
     c = TRUTH + 0.05
     e = Ellipsoid.ball(c, radius)
     return Estimate(label, c, e, e.intervals(), kind, level=0.95 if kind == "statistical" else None,
-                    names=tuple(NAMES), history=_history(), info={"time_s": 0.01})
+                    names=tuple(NAMES), history=_history(), time_s=0.01)
 
 
 # ------------------------------------------------------------------------------------ palette
@@ -112,17 +112,17 @@ def test_torque_bounds_counts_samples_outside_the_band():
     hw = np.full((N, 2), 0.1)
     measured = center + 0.05
     measured[[7, 30], 1] = center[[7, 30], 1] + 0.3
-    fig = torque_bounds(t, measured, center, hw, "OBE-factorized", {"WLS 95 %": (center, 0.5 * hw)},
-                        joint_names=["q1", "q2"])
+    fig = torque_bounds(t, measured, center - hw, center + hw, "OBE-factorized",
+                        {"WLS 95 %": (center - 0.5 * hw, center + 0.5 * hw)}, joint_names=["q1", "q2"])
     assert len(fig.axes) == 2
     assert "0 of 50" in fig.axes[0].get_title() and "2 of 50" in fig.axes[1].get_title()
     marks = [ln for ln in fig.axes[1].lines if ln.get_marker() == "x"]
     assert len(marks) == 1
     np.testing.assert_array_equal(marks[0].get_xdata(), t[[7, 30]])
     with pytest.raises(InputError):
-        torque_bounds(t, measured, center[:, :1], hw)
+        torque_bounds(t, measured, center[:, :1], center + hw)
     with pytest.raises(InputError):
-        torque_bounds(t, measured, center, -hw)
+        torque_bounds(t, measured, center + hw, center - hw)
 
 
 def test_torque_bounds_thins_long_records_but_marks_every_outlier():
@@ -132,7 +132,7 @@ def test_torque_bounds_thins_long_records_but_marks_every_outlier():
     t = np.arange(N) * 1e-3
     y = np.zeros(N)
     y[12345] = 1.0
-    fig = torque_bounds(t, y, np.zeros(N), np.full(N, 0.5), max_points=1000)
+    fig = torque_bounds(t, y, np.full(N, -0.5), np.full(N, 0.5), max_points=1000)
     ax = fig.axes[0]
     measured_line = next(ln for ln in ax.lines if ln.get_label() == "measured")
     assert len(measured_line.get_xdata()) == 1000
@@ -153,22 +153,24 @@ def test_trajectory_comparison_shows_positions_and_errors():
         trajectory_comparison(t, qm, {"WLS": qm[:, :1]})
 
 
-def test_projection_2d_draws_the_hull_and_ellipsoid_boundaries():
+def test_projection_2d_draws_the_polygon_and_the_set_boundaries():
     """References: the convex hull of a square's corners plus interior points is the square
-    (closed form); every drawn ellipse point has Mahalanobis distance 1 (Ellipsoid.mahalanobis2)."""
+    (closed form); every drawn ellipse point has Mahalanobis distance 1 (Ellipsoid.mahalanobis2);
+    a box is drawn by its four corners."""
     corners = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
     pts = np.vstack([corners, np.random.default_rng(0).uniform(0.2, 0.8, (10, 2))])
     E = Ellipsoid([0.5, 0.5], [[0.5, 0.1], [0.1, 0.3]])
-    fig = projection_2d(pts, {"SDP outer": E, "John": E.scaled(0.4)}, [0.5, 0.5], ([0, 0], [1, 1]), ["a", "b"])
+    sets = {"SDP outer": E, "John": E.scaled(0.4), "Box": Box([0.1, 0.2], [0.9, 0.8])}
+    fig = projection_2d(VertexPolytope(pts), sets, [0.5, 0.5], ([0, 0], [1, 1]), ["a", "b"])
     assert len(fig.axes) == 1
     ax = fig.axes[0]
     polygon = ax.patches[0].get_xy()
     assert {tuple(v) for v in np.round(polygon, 12)} == {tuple(v) for v in corners}
     boundary = ax.lines[0].get_xydata()
     np.testing.assert_allclose(E.mahalanobis2(boundary), 1.0, rtol=1e-9)
-    with pytest.raises(InputError, match="collinear"):
-        projection_2d(np.array([[0, 0], [1, 1], [2, 2.0]]), {})
-    with pytest.raises(InputError):
+    box_line = next(ln for ln in ax.lines if ln.get_label() == "Box").get_xydata()
+    assert {tuple(v) for v in box_line} == {(0.1, 0.2), (0.9, 0.2), (0.9, 0.8), (0.1, 0.8)}
+    with pytest.raises(InputError, match="2-D"):
         projection_2d(None, {"3-D": Ellipsoid.ball(np.zeros(3), 1.0)})
 
 
@@ -294,7 +296,7 @@ def study_page(tmp_path_factory):
     page.table(parameter_table(NAMES, {"truth": TRUTH, **{k: e.intervals for k, e in ests.items()}}), "Intervals")
     page.table(estimate_summary(ests, TRUTH), "Summary", "{:.3f}")
     page.figure(parameter_convergence(t, {k: e.history for k, e in ests.items()}, TRUTH, NAMES), "Convergence")
-    page.section("Sets").figure(log_volume_bars({k: e.ellipsoid.log_volume() / 3 for k, e in ests.items()}), "Volumes")
+    page.section("Sets").figure(log_volume_bars({k: e.set.log_volume() / 3 for k, e in ests.items()}), "Volumes")
     path = page.write(root / "toy" / "index.html")
     return root, path
 

@@ -7,7 +7,7 @@ from scipy import stats
 from boundid.errors import InputError, NumericalError
 from boundid.estimators import RLS, KalmanEstimator, ols
 from boundid.estimators.rls import PAPER_P0
-from boundid.sets import log_unit_ball_volume
+from boundid.sets import Ellipsoid, log_unit_ball_volume
 
 
 def _problem(seed, N=200, p=4, sigma=0.1):
@@ -20,22 +20,23 @@ def _problem(seed, N=200, p=4, sigma=0.1):
 def test_rls_with_large_prior_equals_ols():
     """Reference: ols() (numpy SVD least squares): centre, covariance (relative to its norm), intervals to 1e-6."""
     _, W, _, y = _problem(0)
-    est = RLS(4, P0=1e8, names=list("abcd")).fit(W, y)
+    est = RLS(4, shape0=1e8, names=list("abcd")).fit(W, y)
     ref = ols(W, y)
     np.testing.assert_allclose(est.center, ref.center, rtol=1e-6)
-    np.testing.assert_allclose(est.info["cov"], ref.info["cov"], rtol=1e-6, atol=1e-6 * np.abs(ref.info["cov"]).max())
+    np.testing.assert_allclose(est.statistics.cov, ref.statistics.cov, rtol=1e-6,
+                               atol=1e-6 * np.abs(ref.statistics.cov).max())
     np.testing.assert_allclose(est.intervals, ref.intervals, rtol=1e-6)
-    assert est.ellipsoid.log_volume() == pytest.approx(ref.ellipsoid.log_volume(), abs=1e-6)
-    assert est.info["condition_number"] == pytest.approx(ref.info["condition_number"], rel=1e-6)
-    assert est.kind == "statistical" and est.info["guaranteed"] is False and est.info["dof"] == 196
-    assert est.names == tuple("abcd") and est.info["n_samples"] == 200
+    assert est.set.log_volume() == pytest.approx(ref.set.log_volume(), abs=1e-6)
+    assert est.statistics.condition_number == pytest.approx(ref.statistics.condition_number, rel=1e-6)
+    assert est.kind == "statistical" and est.statistics.dof == 196
+    assert est.names == tuple("abcd") and est.n_samples == 200
 
 
 def test_rls_forgetting_equals_weighted_ls_closed_form():
     """Reference: the minimiser of sum lam^(N-i) e_i^2 + lam^N (th - th0)^T P0^-1 (th - th0) (paper eqs. 18-19)."""
     _, W, _, y = _problem(1, N=60)
     lam, th0, P0 = 0.97, np.array([0.5, -0.2, 0.1, 1.0]), np.diag([10.0, 5.0, 2.0, 1.0])
-    rls = RLS(4, theta0=th0, P0=P0, forgetting=lam)
+    rls = RLS(4, center0=th0, shape0=P0, forgetting=lam)
     rls.fit(W, y)
     wgt = lam ** np.arange(59, -1, -1.0)
     A = lam**60 * np.linalg.inv(P0) + (W * wgt[:, None]).T @ W
@@ -49,17 +50,21 @@ def test_rls_forgetting_equals_weighted_ls_closed_form():
 
 
 def test_rls_numba_fit_equals_numpy_updates_and_resumes():
-    """Reference: RLS.update (numpy, row by row); and one fit over all rows against two successive fits."""
+    """Reference: RLS.update (numpy, row by row; its first step against the closed form from
+    theta(0) = 0, P(0) = 1000 I); and one fit then partial_fit against the updates; a second fit
+    starts again from the prior."""
     _, W, _, y = _problem(2, N=120)
     a = RLS(4, record_every=7)
-    errs = [a.update(w, v) for w, v in zip(W, y, strict=True)]
+    first = a.update(W[0], y[0])
+    np.testing.assert_allclose(first.center, PAPER_P0 * W[0] * y[0] / (1.0 + PAPER_P0 * W[0] @ W[0]), rtol=1e-12)
+    for w, v in zip(W[1:], y[1:], strict=True):
+        a.update(w, v)
     b = RLS(4, record_every=7)
     b.fit(W[:50], y[:50])
-    est = b.fit(W[50:], y[50:])
+    est = b.partial_fit(W[50:], y[50:])
     np.testing.assert_allclose(b.theta, a.theta, rtol=1e-10)
     np.testing.assert_allclose(b.P, a.P, rtol=1e-8, atol=1e-14)
     assert b.J == pytest.approx(a.J, rel=1e-10) and b.n == a.n == 120
-    assert errs[0] == pytest.approx(y[0])  # theta0 = 0: the first a-priori error is y itself
     # history: every 7th sample, plus the last row of each fit (49 and 119)
     expected = np.union1d(np.arange(6, 120, 7), [49, 119])
     np.testing.assert_array_equal(est.history.index, expected)
@@ -67,7 +72,10 @@ def test_rls_numba_fit_equals_numpy_updates_and_resumes():
     common = np.isin(ha.index, est.history.index)
     np.testing.assert_allclose(est.history.centers[np.isin(est.history.index, ha.index)], ha.centers[common],
                                rtol=1e-8, atol=1e-10)
-    assert est.history.log_volumes[-1] == pytest.approx(est.ellipsoid.log_volume(), rel=1e-8)
+    assert est.history.log_volumes[-1] == pytest.approx(est.set.log_volume(), rel=1e-8)
+    again = b.fit(W, y)
+    np.testing.assert_allclose(again.center, est.center, rtol=1e-10)
+    assert b.n == 120
 
 
 def test_rls_paper_defaults_and_early_state():
@@ -78,7 +86,7 @@ def test_rls_paper_defaults_and_early_state():
     assert PAPER_P0 == 1000.0
     rng = np.random.default_rng(3)
     est = rls.fit(rng.normal(size=(5, 9)), rng.normal(size=5))
-    assert est.ellipsoid is None and np.all(np.isinf(est.intervals[1]))
+    assert est.set is None and np.all(np.isinf(est.intervals[1]))
     assert np.all(np.isnan(est.history.log_volumes))
 
 
@@ -86,14 +94,14 @@ def test_rls_paper_defaults_and_early_state():
 def test_kalman_q0_r1_equals_rls(engine):
     """Reference: RLS (lambda = 1): with Q = 0 and R = 1 the Kalman filter is the same recursion, to 1e-9."""
     _, W, _, y = _problem(4, N=150)
-    rls = RLS(4, theta0=np.ones(4), P0=50.0)
+    rls = RLS(4, center0=np.ones(4), shape0=50.0)
     rls.fit(W, y)
-    kf = KalmanEstimator(4, np.ones(4), 50.0, R=1.0, Q=0.0)
+    kf = KalmanEstimator(4, center0=np.ones(4), shape0=50.0, R=1.0, Q=0.0)
     est = kf.fit(W, y, engine=engine)
     np.testing.assert_allclose(kf.theta, rls.theta, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(kf.P, rls.P, rtol=1e-9, atol=1e-15)
     assert kf.J == pytest.approx(rls.J, rel=1e-9)
-    assert est.kind == "statistical" and est.info["guaranteed"] is False
+    assert est.kind == "statistical" and est.statistics.dof == np.inf
 
 
 def test_kalman_numba_equals_filterpy():
@@ -101,9 +109,9 @@ def test_kalman_numba_equals_filterpy():
     rng, W, _, y = _problem(5, N=150)
     R = rng.uniform(0.005, 0.05, size=150)
     Q = 1e-5 * np.diag([1.0, 2.0, 0.0, 0.5])
-    args = (4, rng.normal(size=4), np.diag([4.0, 3.0, 2.0, 1.0]), 0.01)
-    a = KalmanEstimator(*args, Q=Q, record_every=10)
-    b = KalmanEstimator(*args, Q=Q, record_every=10)
+    prior = {"center0": rng.normal(size=4), "shape0": np.diag([4.0, 3.0, 2.0, 1.0]), "R": 0.01}
+    a = KalmanEstimator(4, **prior, Q=Q, record_every=10)
+    b = KalmanEstimator(4, **prior, Q=Q, record_every=10)
     ea = a.fit(W, y, R=R, engine="filterpy")
     eb = b.fit(W, y, R=R, engine="numba")
     np.testing.assert_allclose(eb.center, ea.center, rtol=1e-9, atol=1e-12)
@@ -115,7 +123,7 @@ def test_kalman_numba_equals_filterpy():
     assert eb.info["nis"] == pytest.approx(ea.info["nis"], rel=1e-9)
     # single-row updates through filterpy continue the same state
     a.update(W[0], y[0], R=0.02)
-    b.fit(W[:1], y[:1], R=0.02)
+    b.partial_fit(W[:1], y[:1], R=0.02)
     np.testing.assert_allclose(a.theta, b.theta, rtol=1e-9)
 
 
@@ -123,14 +131,14 @@ def test_kalman_posterior_closed_form():
     """Reference: the Gaussian posterior P = (P0^-1 + W^T W / r)^-1, mean P (P0^-1 th0 + W^T y / r); z intervals."""
     _, W, _, y = _problem(6, N=40)
     th0, P0, r = np.zeros(4), np.diag([2.0, 1.0, 0.5, 3.0]), 0.04
-    est = KalmanEstimator(4, th0, P0, R=r, level=0.9).fit(W, y)
+    est = KalmanEstimator(4, center0=th0, shape0=P0, R=r, level=0.9).fit(W, y)
     P = np.linalg.inv(np.linalg.inv(P0) + W.T @ W / r)
     mean = P @ (W.T @ y / r)
     np.testing.assert_allclose(est.center, mean, rtol=1e-9)
-    np.testing.assert_allclose(est.info["cov"], P, rtol=1e-9)
+    np.testing.assert_allclose(est.statistics.cov, P, rtol=1e-9)
     z = stats.norm.ppf(0.95)
     np.testing.assert_allclose(est.intervals[1], mean + z * np.sqrt(np.diag(P)), rtol=1e-9)
-    np.testing.assert_allclose(est.ellipsoid.shape, stats.chi2.ppf(0.9, 4) * P, rtol=1e-9)
+    np.testing.assert_allclose(est.set.shape, stats.chi2.ppf(0.9, 4) * P, rtol=1e-9)
     lv = log_unit_ball_volume(4) + 0.5 * np.linalg.slogdet(stats.chi2.ppf(0.9, 4) * P)[1]
     assert est.history.log_volumes[-1] == pytest.approx(lv, rel=1e-9)
 
@@ -144,14 +152,14 @@ def test_coverage_gaussian_and_uniform(record_property):
     for _ in range(runs):
         W = rng.normal(size=(100, 3))
         y = W @ theta + 0.2 * rng.normal(size=100)
-        e = RLS(3, P0=1e8, record_every=0).fit(W, y)
+        e = RLS(3, shape0=1e8, record_every=0).fit(W, y)
         hits["rls"] += np.sum((e.intervals[0] <= theta) & (theta <= e.intervals[1]))
         hits["rls_ell"] += e.contains(theta)
-        k = KalmanEstimator(3, None, 1e8, R=0.04, record_every=0).fit(W, y)
+        k = KalmanEstimator(3, shape0=1e8, R=0.04, record_every=0).fit(W, y)
         hits["kf"] += np.sum((k.intervals[0] <= theta) & (theta <= k.intervals[1]))
         hits["kf_ell"] += k.contains(theta)
         yu = W @ theta + rng.uniform(-0.3, 0.3, size=100)
-        u = RLS(3, P0=1e8, record_every=0).fit(W, yu)
+        u = RLS(3, shape0=1e8, record_every=0).fit(W, yu)
         hits["rls_unif"] += np.sum((u.intervals[0] <= theta) & (theta <= u.intervals[1]))
     cov = {k: v / (runs * (1 if k.endswith("ell") else 3)) for k, v in hits.items()}
     for k, v in cov.items():
@@ -167,9 +175,10 @@ def test_coverage_gaussian_and_uniform(record_property):
         (lambda: RLS(0), "positive integer"),
         (lambda: RLS(3, forgetting=0.0), "forgetting"),
         (lambda: RLS(3, forgetting=1.5), "forgetting"),
-        (lambda: RLS(3, P0=-1.0), "P0"),
-        (lambda: RLS(3, P0=np.diag([1.0, -1.0, 1.0])), "positive definite"),
-        (lambda: RLS(3, theta0=np.zeros(2)), "theta0"),
+        (lambda: RLS(3, shape0=-1.0), "shape0"),
+        (lambda: RLS(3, shape0=np.diag([1.0, -1.0, 1.0])), "positive definite"),
+        (lambda: RLS(3, center0=np.zeros(2)), "center0"),
+        (lambda: RLS(3, prior=Ellipsoid(np.zeros(3), np.eye(3)), shape0=1.0), "prior once"),
         (lambda: RLS(3, record_every=-1), "record_every"),
         (lambda: RLS(3, names=["a", "b"]), "names"),
         (lambda: RLS(3, level=1.0), "level"),
@@ -178,11 +187,11 @@ def test_coverage_gaussian_and_uniform(record_property):
         (lambda: RLS(3).fit(np.zeros((5, 3)), np.zeros(4)), "rows"),
         (lambda: RLS(3).update(np.zeros(2), 1.0), "length 3"),
         (lambda: RLS(3).update(np.zeros(3), np.nan), "NaN"),
-        (lambda: KalmanEstimator(3, None, 1.0, R=0.0), "R"),
-        (lambda: KalmanEstimator(3, None, 1.0, R=1.0, Q=-1.0), "Q"),
-        (lambda: KalmanEstimator(3, None, 1.0, R=1.0, Q=np.ones((2, 2))), "Q"),
-        (lambda: KalmanEstimator(3, None, 1.0, R=1.0).fit(np.zeros((5, 3)), np.zeros(5), R=np.ones(4)), "R"),
-        (lambda: KalmanEstimator(3, None, 1.0, R=1.0).fit(np.zeros((5, 3)), np.zeros(5), engine="x"), "engine"),
+        (lambda: KalmanEstimator(3, shape0=1.0, R=0.0), "R"),
+        (lambda: KalmanEstimator(3, shape0=1.0, R=1.0, Q=-1.0), "Q"),
+        (lambda: KalmanEstimator(3, shape0=1.0, R=1.0, Q=np.ones((2, 2))), "Q"),
+        (lambda: KalmanEstimator(3, shape0=1.0, R=1.0).fit(np.zeros((5, 3)), np.zeros(5), R=np.ones(4)), "R"),
+        (lambda: KalmanEstimator(3, shape0=1.0, R=1.0).fit(np.zeros((5, 3)), np.zeros(5), engine="x"), "engine"),
     ],
 )
 def test_bad_input_raises_input_error(call, match):
@@ -201,7 +210,7 @@ def test_rls_update_equals_fit_with_forgetting():
         a.update(w, v)
     b = RLS(4, forgetting=lam, record_every=5)
     b.fit(W[:40], y[:40])
-    b.fit(W[40:], y[40:])
+    b.partial_fit(W[40:], y[40:])
     np.testing.assert_allclose(b.theta, a.theta, rtol=1e-10)
     np.testing.assert_allclose(b.P, a.P, rtol=1e-8, atol=1e-12 * np.abs(a.P).max())
     assert b.J == pytest.approx(a.J, rel=1e-10) and b.n_eff == pytest.approx(a.n_eff, rel=1e-12)
@@ -224,15 +233,15 @@ def test_kalman_dense_q_agrees_with_filterpy():
     Q = 1e-4 * (A @ A.T + 0.1 * np.eye(4))
     assert np.all(Q[~np.eye(4, dtype=bool)] != 0) and np.linalg.eigvalsh(Q)[0] > 0
     R = rng.uniform(0.005, 0.05, size=120)
-    args = (4, rng.normal(size=4), np.diag([4.0, 3.0, 2.0, 1.0]), 0.01)
-    a = KalmanEstimator(*args, Q=Q, record_every=10)
-    b = KalmanEstimator(*args, Q=Q, record_every=10)
+    prior = {"center0": rng.normal(size=4), "shape0": np.diag([4.0, 3.0, 2.0, 1.0]), "R": 0.01}
+    a = KalmanEstimator(4, **prior, Q=Q, record_every=10)
+    b = KalmanEstimator(4, **prior, Q=Q, record_every=10)
     ea = a.fit(W, y, R=R, engine="filterpy")
     eb = b.fit(W, y, R=R, engine="numba")
     np.testing.assert_allclose(eb.center, ea.center, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(b.P, a.P, rtol=1e-9, atol=1e-15)
     np.testing.assert_allclose(eb.history.log_volumes, ea.history.log_volumes, rtol=1e-9)
-    x, P = args[1].copy(), args[2].copy()
+    x, P = prior["center0"].copy(), prior["shape0"].copy()
     for w, v, r in zip(W, y, R, strict=True):
         P = P + Q
         S = w @ P @ w + r
@@ -267,28 +276,32 @@ def test_filters_fail_cleanly_on_badly_scaled_data(how):
     the fix, and the estimator is exactly as it was before the call (history included), so it
     still reports the rows it had."""
     rng, W, theta, y = _problem(10, N=60)
-    f = RLS(4, record_every=1) if how.startswith("rls") else KalmanEstimator(4, None, 1000.0, R=1.0)
+    f = RLS(4, record_every=1) if how.startswith("rls") else KalmanEstimator(4, shape0=1000.0, R=1.0)
     f.fit(W[:5], y[:5]) if how != "kalman filterpy" else f.fit(W[:5], y[:5], engine="filterpy")
     before = _state(f)
     assert before[4] == 5 and len(before[6][0]) == 5
     Wb, yb = W[5:] * 1e8, y[5:] * 1e8
     with pytest.raises(NumericalError, match=r"at row \d+ .*Scale the columns of W and y"):
         if how == "rls fit":
-            f.fit(Wb, yb)
+            f.partial_fit(Wb, yb)
         elif how == "kalman numba":
-            f.fit(Wb, yb, engine="numba")
+            f.partial_fit(Wb, yb, engine="numba")
         elif how == "kalman filterpy":
-            f.fit(Wb, yb, engine="filterpy")
+            f.partial_fit(Wb, yb, engine="filterpy")
         else:
             for w, v in zip(Wb, yb, strict=True):
                 before = _state(f)  # row by row: the failing row leaves the previous rows' state
                 f.update(w, v)
     _assert_same_state(_state(f), before)
     est = f.estimate()
-    assert np.all(np.isfinite(est.center)) and est.info["n_samples"] == before[4]
+    assert np.all(np.isfinite(est.center)) and est.n_samples == before[4]
+    if how.endswith("fit") or how.endswith("numba"):  # a failing fit (from the prior) also leaves it as it was
+        with pytest.raises(NumericalError):
+            f.fit(Wb, yb)
+        _assert_same_state(_state(f), before)
 
 
-@pytest.mark.parametrize("make", [lambda: RLS(4), lambda: KalmanEstimator(4, None, 1000.0, R=1.0)])
+@pytest.mark.parametrize("make", [lambda: RLS(4), lambda: KalmanEstimator(4, shape0=1000.0, R=1.0)])
 def test_issue_scaled_data_from_the_start_raises_numerical_error(make):
     """The case of data x 1e7 with the paper's P0 = 1000 I. The first rows already cancel
     all 16 digits of P; NumericalError says so and the filter keeps its prior (n = 0)."""

@@ -73,7 +73,7 @@ def check_case(seed: int):
     assert np.all(v_lo <= tol) and np.all(v_hi >= -tol), f"seed {seed}: the truth is outside the bounds"
     # the certificates, checked on the original data
     assert b.residual_ratio <= 1 + 1e-6 and b.vertex_excess <= 1.0
-    assert np.all(P.contains(b.point, atol=1e-6))
+    assert np.all(P.contains(b.point, rtol=1e-6))
 
 
 @pytest.mark.parametrize("seed", range(40))

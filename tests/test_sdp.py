@@ -60,7 +60,7 @@ def test_volume_chain_and_containment(p, N, seed):
     assert around.ellipsoid.volume() <= john.ellipsoid.volume() * (1 + 1e-6)
     for r in (outer, john, around):
         assert np.all(r.ellipsoid.contains(V))
-    assert np.all(P.contains(boundary(inner.ellipsoid), atol=1e-9))
+    assert np.all(P.contains(boundary(inner.ellipsoid), rtol=1e-9))
     assert outer.info["max_reduced_cost"] <= outer.info["price_tol"]
 
 

@@ -19,7 +19,7 @@ from boundid.errors import InfeasibleDataError
 from boundid.estimators import OBE, validate
 from boundid.models import LinearToy
 from boundid.report import color_for
-from boundid.sets import Ellipsoid, Polytope, step_ellipsoid
+from boundid.sets import Box, Ellipsoid, Polytope, step_ellipsoid
 from boundid.teaching import Handout, fast_mode, output_dir
 
 FAST = fast_mode()
@@ -57,15 +57,15 @@ def ordered(v):
 # should match it.
 
 # %%
-obe = OBE.from_prior(prior, prior_half, criterion="volume", names=("J", "mgl"))
+obe = OBE(2, prior=Box.from_center(prior, prior_half), criterion="volume", names=("J", "mgl"))
 E0 = obe.ellipsoid()
 window = E0.intervals()
 steps = []
 for k in range(N):
     E_prev, M_prev = frozen(obe.ellipsoid()), obe.information()
-    n_out, n_skip = obe.estimate().info["n_outliers"], obe.n_skipped
+    n_out, n_skip = obe.estimate().n_outliers, obe.n_skipped
     est = obe.update(W[k], y[k], E_MAX)
-    event = "outlier" if est.info["n_outliers"] > n_out else "skipped" if obe.n_skipped > n_skip else "update"
+    event = "outlier" if est.n_outliers > n_out else "skipped" if obe.n_skipped > n_skip else "update"
     v = np.array([-W[k, 1], W[k, 0]])                       # orthogonal to w_k
     lam = 1.0 - (v @ obe.information() @ v) / (v @ M_prev @ v) if event == "update" else 0.0
     try:
@@ -73,8 +73,8 @@ for k in range(N):
     except InfeasibleDataError:
         sdp = np.nan                                         # the strip misses the ellipse
     steps.append({"strip": k + 1, "event": event, "lambda": lam, "ln area before": E_prev.log_volume(),
-                  "ln area OBE": est.ellipsoid.log_volume(), "ln area SDP optimum": sdp,
-                  "truth inside": bool(est.contains(theta_true)), "E_prev": E_prev, "E": frozen(est.ellipsoid)})
+                  "ln area OBE": est.set.log_volume(), "ln area SDP optimum": sdp,
+                  "truth inside": bool(est.contains(theta_true)), "E_prev": E_prev, "E": frozen(est.set)})
 table = pd.DataFrame([{k: v for k, v in s.items() if k not in ("E_prev", "E")} for s in steps])
 table = table.set_index(table["strip"].astype(str)).drop(columns="strip")   # text labels for the page tables
 print(table)
@@ -122,22 +122,22 @@ print(f"GIF: {len(frames)} frames, {gif.tell() / 1e3:.0f} kB")
 
 # %%
 P = Polytope(W[clean], y[clean], E_MAX)
-fits = {c: OBE.from_prior(prior, prior_half, criterion=c, names=("J", "mgl")).fit(W[clean], y[clean], E_MAX)
-        for c in ("volume", "trace")}
+fits = {c: OBE(2, prior=Box.from_center(prior, prior_half), criterion=c, names=("J", "mgl"))
+        .fit(W[clean], y[clean], E_MAX) for c in ("volume", "trace")}
 crit_rows = {}
 for c, est in fits.items():
     cert = validate(est, P)
-    crit_rows[c] = {"ln area": est.ellipsoid.log_volume(), "trace of shape": float(np.trace(est.ellipsoid.shape)),
+    crit_rows[c] = {"ln area": est.set.log_volume(), "trace of shape": float(np.trace(est.set.shape)),
                     "width / LP width, J": cert.width_ratio[0], "width / LP width, mgl": cert.width_ratio[1],
                     "ln-area excess over min outer": 2 * cert.excess_outer,
-                    "contains P": cert.contains_polytope, "updates": est.info["n_updates"],
-                    "skipped": est.info["n_skipped"]}
+                    "contains P": cert.contains_polytope, "updates": est.n_updates,
+                    "skipped": est.n_skipped}
 crit = pd.DataFrame.from_dict(crit_rows, orient="index").rename_axis("criterion")
 fig_c = Figure(figsize=(8.4, 3.4), layout="constrained")
 ax1, ax2 = fig_c.subplots(1, 2)
 ax1.add_patch(PolygonPatch(ordered(P.vertices()), closed=True, fc="#dddddd", ec="k", lw=1, label="exact polygon"))
 for c, est, ls in (("volume", fits["volume"], "-"), ("trace", fits["trace"], "--")):
-    ax1.plot(*est.ellipsoid.boundary().T, ls, lw=1.5, label=f"OBE ({c})")
+    ax1.plot(*est.set.boundary().T, ls, lw=1.5, label=f"OBE ({c})")
 ax1.plot(*theta_true, "k*", ms=8, label="truth")
 ax1.set(xlabel="J [kg m²]", ylabel="mgl [N m]")
 ax1.legend(fontsize=7)
@@ -155,10 +155,10 @@ ax2.legend(fontsize=7)
 perms = [clean] + [rng.permutation(clean) for _ in range(2 if FAST else 5)]
 order_rows, order_ells = [], []
 for i, perm in enumerate(perms):
-    est = OBE.from_prior(prior, prior_half, criterion="volume").fit(W[perm], y[perm], E_MAX)
+    est = OBE(2, prior=Box.from_center(prior, prior_half), criterion="volume").fit(W[perm], y[perm], E_MAX)
     lo, hi = est.intervals
-    order_ells.append(est.ellipsoid)
-    order_rows.append({"order": "as measured" if i == 0 else f"shuffle {i}", "ln area": est.ellipsoid.log_volume(),
+    order_ells.append(est.set)
+    order_rows.append({"order": "as measured" if i == 0 else f"shuffle {i}", "ln area": est.set.log_volume(),
                        "J lo": lo[0], "J hi": hi[0], "mgl lo": lo[1], "mgl hi": hi[1],
                        "truth inside": bool(est.contains(theta_true))})
 order = pd.DataFrame(order_rows).set_index("order")

@@ -39,7 +39,7 @@ def run(form, theta, W, y):
     trace, est, error = [], None, ""
     for k in range(0, W.shape[0], CHUNK):
         try:
-            est = obe.fit(W[k:k + CHUNK], y[k:k + CHUNK], E_MAX)
+            est = obe.partial_fit(W[k:k + CHUNK], y[k:k + CHUNK], E_MAX)
         except SolverError as exc:
             est, error = None, "SolverError: " + ("not definite" if "definiteness" in str(exc) else str(exc)[:60])
         if form == "standard":    # the stored matrix itself: shape = sigma M^-1
@@ -59,8 +59,8 @@ theta_ok = rng.normal(size=P_DIM)
 W_ok = rng.normal(size=(500, P_DIM))
 y_ok = W_ok @ theta_ok + rng.uniform(-0.1, 0.1, 500)
 agree = {f: OBE(P_DIM, shape0=100.0, form=f).fit(W_ok, y_ok, 0.1) for f in ("standard", "factorized")}
-diff = np.abs(agree["standard"].ellipsoid.shape - agree["factorized"].ellipsoid.shape).max()
-scale = np.abs(agree["factorized"].ellipsoid.shape).max()
+diff = np.abs(agree["standard"].set.shape - agree["factorized"].set.shape).max()
+scale = np.abs(agree["factorized"].set.shape).max()
 print(f"well conditioned: max |S_std - S_fac| / max |S| = {diff / scale:.2e}")
 
 # %% [markdown]

@@ -16,7 +16,7 @@ from matplotlib.patches import Polygon as PolygonPatch
 from boundid.estimators import OBE, ols
 from boundid.models import LinearToy
 from boundid.report import color_for
-from boundid.sets import Polytope
+from boundid.sets import Box, Polytope
 from boundid.teaching import Handout, fast_mode, output_dir
 
 FAST = fast_mode()
@@ -73,19 +73,19 @@ for ax, kind in zip(axes, SCENARIOS, strict=True):
     W, y = experiment(kind, rng)
     ls = ols(W, y, level=0.95, names=("J", "mgl"))
     P, gamma = guaranteed(W, y)
-    obe = OBE.from_prior(prior, prior_half, names=("J", "mgl")).fit(W, y, E_MAX)
+    obe = OBE(2, prior=Box.from_center(prior, prior_half), names=("J", "mgl")).fit(W, y, E_MAX)
     if P is not None:
         ax.add_patch(PolygonPatch(ordered(P.vertices()), closed=True, fc="#dddddd", ec="k", lw=1, label="exact set"))
-    ax.plot(*obe.ellipsoid.boundary().T, color=color_for("OBE-factorized"), lw=1.5, label="OBE")
-    ax.plot(*ls.ellipsoid.boundary().T, color=color_for("OLS"), lw=1.5, label="OLS 95 %")
+    ax.plot(*obe.set.boundary().T, color=color_for("OBE-factorized"), lw=1.5, label="OBE")
+    ax.plot(*ls.set.boundary().T, color=color_for("OLS"), lw=1.5, label="OLS 95 %")
     ax.plot(*theta_true, "k*", ms=9, label="truth")
     ax.set(title=kind, xlabel="J [kg m²]", ylabel="mgl [N m]")
     ax.legend(fontsize=7)
-    rows[kind] = {"OLS contains truth": ls.contains(theta_true), "OLS area": ls.ellipsoid.volume(),
+    rows[kind] = {"OLS contains truth": ls.contains(theta_true), "OLS area": ls.set.volume(),
                   "gamma*": gamma, "exact set": "empty" if P is None else "non-empty",
                   "exact set contains truth": bool(P is not None and P.contains(theta_true)),
-                  "OBE contains truth": obe.contains(theta_true), "OBE area": obe.ellipsoid.volume(),
-                  "OBE outliers": obe.info["n_outliers"]}
+                  "OBE contains truth": obe.contains(theta_true), "OBE area": obe.set.volume(),
+                  "OBE outliers": obe.n_outliers}
 
 # %% [markdown]
 # ## Many experiments: how often does each set contain the truth?
@@ -95,7 +95,7 @@ for kind in SCENARIOS:
     hits = np.zeros(2)
     for _ in range(REPEATS):
         W, y = experiment(kind, rng)
-        obe = OBE.from_prior(prior, prior_half).fit(W, y, E_MAX)
+        obe = OBE(2, prior=Box.from_center(prior, prior_half)).fit(W, y, E_MAX)
         hits += [ols(W, y).contains(theta_true), obe.contains(theta_true)]
     rows[kind]["OLS coverage"], rows[kind]["OBE coverage"] = hits / REPEATS
 table = pd.DataFrame.from_dict(rows, orient="index").rename_axis("scenario")

@@ -20,7 +20,7 @@ from boundid.estimators import (
 from boundid.estimators.box_recursion import box_step
 from boundid.estimators.parallelotope_recursion import parallelotope_step
 from boundid.estimators.zonotope_recursion import zonotope_step
-from boundid.sets import Polytope
+from boundid.sets import Box, Polytope
 
 GOALS = """
 Recursive guaranteed-set families on random strips: rows w ~ N(0, I), uniform
@@ -85,18 +85,23 @@ def _numpy_loop(family, S, W, y, e, p):
     return time.perf_counter() - t0
 
 
+def _prior(p: int) -> Box:
+    """The prior box 0 +- 10 every family starts from."""
+    return Box.from_center(np.zeros(p), 10.0)
+
+
 COMPILED = {
-    "box": (lambda p: BoxRecursion(p, half_widths0=10.0, record_every=10**9), lambda p: 2 * p),
-    "parallelotope": (lambda p: ParallelotopeRecursion(p, half_widths0=10.0, record_every=10**9),
+    "box": (lambda p: BoxRecursion(p, prior=_prior(p), record_every=10**9), lambda p: 2 * p),
+    "parallelotope": (lambda p: ParallelotopeRecursion(p, prior=_prior(p), record_every=10**9),
                       lambda p: p * p + p),
-    "zonotope": (lambda p: ZonotopeRecursion(p, half_widths0=10.0, record_every=10**9),
+    "zonotope": (lambda p: ZonotopeRecursion(p, prior=_prior(p), record_every=10**9),
                  lambda p: (2 * p + 1) * p + p),
 }
 
 
 def _row(family, p, N, est, wall, cpu, b, theta, stored, **extra):
     lo, hi = est.intervals
-    return {"family": family, "p": p, "N": N, "n_updates": est.info["n_updates"],
+    return {"family": family, "p": p, "N": N, "n_updates": est.n_updates,
             "samples_per_s": N / wall, "cpu_samples_per_s": N / max(cpu, 1e-9),
             "width_over_lp": float(np.mean((hi - lo) / (b.hi - b.lo))), "contains_truth": est.contains(theta),
             "stored": stored, **extra}
@@ -119,20 +124,20 @@ def run(quick: bool = False) -> pd.DataFrame:
             t_ref = _numpy_loop(family, head.set, W[N - n_ref:], y[N - n_ref:], e[N - n_ref:], p)
             rows.append(_row(family, p, N, est, wall, cpu, b, theta, stored(p), numpy_samples_per_s=n_ref / t_ref,
                              ratio=(N / wall) / (n_ref / t_ref), batch_lp_s=batch_lp))
-        est, wall, cpu = _best_of(lambda p=p: OBE.from_prior(np.zeros(p), 10.0, record_every=10**9), W, y, e)
+        est, wall, cpu = _best_of(lambda p=p: OBE(p, prior=_prior(p), record_every=10**9), W, y, e)
         rows.append(_row("OBE (reference)", p, N, est, wall, cpu, b, theta, p * p + p, batch_lp_s=batch_lp))
-        est, wall, cpu = _best_of(lambda p=p: BoxedOBE(p, half_widths0=10.0, record_every=10**9), W, y, e, 1)
+        est, wall, cpu = _best_of(lambda p=p: BoxedOBE(p, prior=_prior(p), record_every=10**9), W, y, e, 1)
         rows.append(_row("OBE ∩ prior box", p, N, est, wall, cpu, b, theta, p * p + p, batch_lp_s=batch_lp))
-        est, wall, cpu = _best_of(lambda p=p: LimitedPolytopeRecursion(p, half_widths0=10.0), W, y, e, 1)
+        est, wall, cpu = _best_of(lambda p=p: LimitedPolytopeRecursion(p, prior=_prior(p)), W, y, e, 1)
         rows.append(_row("limited polytope", p, N, est, wall, cpu, b, theta, 4 * p * (p + 2) + 2 * p,
                          batch_lp_s=batch_lp, time_over_batch_lp=wall / batch_lp))
         if p <= 14:
             Nw = 1_000 if quick else 4_000
             bw = Polytope(W[:Nw], y[:Nw], e[:Nw], box=box).bounds()
-            est, wall, cpu = _best_of(lambda p=p: WindowedOBE(p, half_widths0=10.0), W[:Nw], y[:Nw], e[:Nw], 1)
+            est, wall, cpu = _best_of(lambda p=p: WindowedOBE(p, prior=_prior(p)), W[:Nw], y[:Nw], e[:Nw], 1)
             rows.append(_row("windowed OBE", p, Nw, est, wall, cpu, bw, theta, p * p + p,
                              n_resets=est.info["n_resets"]))
-            est, wall, cpu = _best_of(lambda p=p: OBE.from_prior(np.zeros(p), 10.0, record_every=10**9),
+            est, wall, cpu = _best_of(lambda p=p: OBE(p, prior=_prior(p), record_every=10**9),
                                       W[:Nw], y[:Nw], e[:Nw])
             rows.append(_row("OBE (reference)", p, Nw, est, wall, cpu, bw, theta, p * p + p))
     for p in (2, 3, 4):
@@ -142,7 +147,7 @@ def run(quick: bool = False) -> pd.DataFrame:
         t0 = time.perf_counter()
         b = Polytope(W, y, e, box=box).bounds()
         batch_lp = time.perf_counter() - t0
-        est, wall, cpu = _best_of(lambda p=p, N=N: PolytopeRecursion(p, half_widths0=10.0, record_every=N), W, y, e, 1)
+        est, wall, cpu = _best_of(lambda p=p, N=N: PolytopeRecursion(p, prior=_prior(p), record_every=N), W, y, e, 1)
         dev = max(np.abs(est.intervals[0] - b.lo).max(), np.abs(est.intervals[1] - b.hi).max())
         rows.append(_row("exact polytope", p, N, est, wall, cpu, b, theta,
                          est.info["n_vertices"] * p + est.info["n_facets"] * (p + 1), batch_lp_s=batch_lp,

@@ -131,7 +131,7 @@ def run(quick: bool = False) -> pd.DataFrame:
                 (wall, cpu), (dwall, dcpu) = t["sparse"], t["default"]
                 rows.append({
                     "p": p, "form": form, "mode": "selective" if selective else "every sample", "N": N,
-                    "n_updates": est.info["n_updates"], "compiled_M_per_s": N / wall / 1e6,
+                    "n_updates": est.n_updates, "compiled_M_per_s": N / wall / 1e6,
                     "compiled_cpu_M_per_s": N / max(cpu, 1e-9) / 1e6, "numpy_M_per_s": n_ref / wall_ref / 1e6,
                     "ratio": (N / wall) / (n_ref / wall_ref), "default_M_per_s": N / dwall / 1e6,
                     "default_ratio": cpu / max(dcpu, 1e-9), "default_ratio_wall": wall / dwall,

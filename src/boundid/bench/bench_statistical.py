@@ -40,7 +40,7 @@ def run(quick: bool = False) -> pd.DataFrame:
     W = rng.normal(size=(N, p))
     y = W @ rng.normal(size=p) + 0.1 * rng.normal(size=N)
     RLS(p).fit(W[:50], y[:50])  # warm-up: load the compiled loop
-    KalmanEstimator(p, None, 1000.0, 1.0).fit(W[:50], y[:50])
+    KalmanEstimator(p, shape0=1000.0, R=1.0).fit(W[:50], y[:50])
 
     def rls_numba(rows, record_every=0):
         return RLS(p, record_every=record_every).fit(W[:rows], y[:rows]).center
@@ -52,7 +52,7 @@ def run(quick: bool = False) -> pd.DataFrame:
         return r.theta
 
     def kalman(rows, engine):
-        return KalmanEstimator(p, None, 1000.0, 0.01, record_every=0).fit(W[:rows], y[:rows], engine=engine).center
+        return KalmanEstimator(p, shape0=1000.0, R=0.01, record_every=0).fit(W[:rows], y[:rows], engine=engine).center
 
     cases = [
         ("RLS numba (no history)", N, 3, lambda: rls_numba(N), lambda: rls_numba(N)),

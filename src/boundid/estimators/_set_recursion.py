@@ -1,5 +1,6 @@
 """What every recursive guaranteed-set estimator shares: the prior box, the fit / partial_fit /
-update protocol, outliers, the history, and the :class:`Estimate` it returns.
+update protocol (:mod:`boundid.estimators.protocol`), outliers, the history, and the
+:class:`Estimate` it returns.
 
 Model: y_k = w_k^T theta + e_k, |e_k| <= e_max_k. Each family keeps an outer set X_k with
 X_k ⊇ X_{k-1} ∩ S_k, S_k = {theta : |y_k - w_k^T theta| <= e_max_k}, starting from a prior box
@@ -14,11 +15,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from boundid._validation import as_bounds, as_float_array, as_regression, as_vector
+from boundid._validation import as_bounds, as_regression
 from boundid.errors import InfeasibleDataError, InputError
 from boundid.estimators._set_kernels import KAPPA, NO_INFO, OUTLIER, ROUND_GUARD, UPDATE
 from boundid.estimators.estimate import Estimate, History
-from boundid.sets.box import Box
+from boundid.estimators.protocol import RecursiveEstimator, box_prior
+
+#: shape0 when no prior is given: the ball of radius 1000 about center0, whose bounding box is
+#: center0 +- 1000
+DEFAULT_SHAPE0 = 1e6
 
 
 def clip_strip(y: float, s: float, m: float, r: float, wc: float) -> tuple[int, float, float]:
@@ -49,18 +54,18 @@ class Run:
     out_res: np.ndarray
 
 
-class SetRecursion:
+class SetRecursion(RecursiveEstimator):
     """Base class of the recursive set estimators (not used directly).
 
     Parameters
     ----------
     p : int
         Number of parameters.
-    center0 : (p,) array, default 0
-        Centre of the prior box (a-priori parameter values).
-    half_widths0 : float or (p,) array, default 1e3
-        Half-widths of the prior box center0 +- half_widths0 (parameter units, > 0). The
-        guarantee needs the true parameters inside it.
+    prior : Box (or any ConvexSet, taken as its interval hull), optional
+        The prior box (a-priori parameter values +- ranges, parameter units). The guarantee needs
+        the true parameters inside it.
+    center0, shape0 : the prior's ellipsoidal spelling (:mod:`boundid.estimators.protocol`): the
+        box center0 +- sqrt(diag shape0); default 0 +- 1000.
     on_outlier : "skip" | "raise"
         What to do with a strip that misses the current set.
     record_every : int
@@ -72,25 +77,15 @@ class SetRecursion:
     #: the Estimate's ``method``; subclasses set it
     method = ""
 
-    def __init__(self, p: int, *, center0=None, half_widths0=1e3, on_outlier: str = "skip",
+    def __init__(self, p: int, *, prior=None, center0=None, shape0=None, on_outlier: str = "skip",
                  record_every: int = 1, names=None):
-        if not (isinstance(p, int | np.integer) and p >= 1):
-            raise InputError(f"p must be a positive integer (number of parameters), got {p!r}.")
-        self.p = int(p)
-        c0 = np.zeros(self.p) if center0 is None else as_vector(center0, "center0", self.p)
-        h0 = np.broadcast_to(as_float_array(half_widths0, "half_widths0"), (self.p,)).astype(float)
-        if not np.all(np.isfinite(h0) & (h0 > 0)):
-            raise InputError("half_widths0 must be finite and > 0 (the prior box must have an interior).")
+        super().__init__(p, names)
         if on_outlier not in ("skip", "raise"):
             raise InputError(f"on_outlier must be 'skip' or 'raise', got {on_outlier!r}.")
         if not (isinstance(record_every, int | np.integer) and record_every >= 1):
             raise InputError(f"record_every must be an integer >= 1, got {record_every!r}.")
-        if names is not None:
-            names = tuple(str(s) for s in names)
-            if len(names) != self.p:
-                raise InputError(f"names must hold {self.p} names, got {len(names)}.")
-        self.prior = Box.from_center(c0, h0)
-        self.on_outlier, self.record_every, self.names = on_outlier, int(record_every), names
+        self.prior = box_prior(self.p, prior, center0, shape0, DEFAULT_SHAPE0)
+        self.on_outlier, self.record_every = on_outlier, int(record_every)
         self.reset()
 
     # ------------------------------------------------------------------ protocol
@@ -98,17 +93,13 @@ class SetRecursion:
         """Forget every sample: back to the prior box."""
         self.n_samples = self.n_updates = self.n_skipped = 0
         self.time_s = 0.0
+        self.unverified_reason: str | None = None
         self._runs: list[Run] = []
         self._start()
 
-    def fit(self, W, y, e_max) -> Estimate:
-        """Start from the prior and process the rows of W (N, p), y (N,) with bounds e_max
-        (scalar or (N,)). Returns :meth:`estimate`."""
-        self.reset()
-        return self.partial_fit(W, y, e_max)
-
     def partial_fit(self, W, y, e_max) -> Estimate:
-        """Continue from the current set with more rows (same arguments as :meth:`fit`)."""
+        """Continue from the current set with the rows of W (N, p), y (N,) with bounds e_max
+        (scalar or (N,)). Returns :meth:`estimate`."""
         W, y = as_regression(W, y)
         if W.shape[1] != self.p:
             raise InputError(f"W must have {self.p} columns (one per parameter), got {W.shape[1]}.")
@@ -128,13 +119,9 @@ class SetRecursion:
                 "inconsistent with e_max (raise the bounds) or that sample is an outlier (use on_outlier='skip').")
         return self.estimate()
 
-    def update(self, w, y, e_max) -> Estimate:
-        """Process one observation y = w^T theta + e, |e| <= e_max."""
-        w = as_vector(w, "w", self.p)
-        return self.partial_fit(w.reshape(1, -1), as_vector(y, "y", 1), e_max)
-
     def estimate(self) -> Estimate:
-        """The current guaranteed set as an :class:`Estimate` (kind "guaranteed")."""
+        """The current guaranteed set as an :class:`Estimate` (kind "guaranteed"; "unverified" with
+        the reason when a step could not vouch for its set)."""
         S = self.current_set()
         runs = self._runs
         history = History(
@@ -144,11 +131,11 @@ class SetRecursion:
         )
         outliers = np.concatenate([r.out_idx for r in runs]) if runs else np.zeros(0, np.int64)
         residuals = np.concatenate([r.out_res for r in runs]) if runs else np.zeros(0)
-        info = {"n_samples": self.n_samples, "n_updates": self.n_updates, "n_skipped": self.n_skipped,
-                "n_outliers": int(outliers.size), "time_s": self.time_s, **self._info()}
-        return Estimate(method=self.method, center=self._center(S), ellipsoid=None, intervals=self._intervals(S),
-                        kind="guaranteed", names=self.names, history=history, outliers=outliers,
-                        outlier_residuals=residuals, info=info, set=S)
+        return Estimate(method=self.method, center=self._center(S), set=S, intervals=self._intervals(S),
+                        kind="guaranteed" if self.unverified_reason is None else "unverified", names=self.names,
+                        history=history, outliers=outliers, outlier_residuals=residuals, n_samples=self.n_samples,
+                        n_updates=self.n_updates, n_skipped=self.n_skipped, time_s=self.time_s,
+                        unverified_reason=self.unverified_reason, info=self._info())
 
     # ------------------------------------------------------------------ per family
     def _start(self) -> None:

@@ -43,8 +43,8 @@ def box_step(lo: np.ndarray, hi: np.ndarray, w: np.ndarray, y: float, e: float) 
 class BoxRecursion(SetRecursion):
     """Recursive box (interval) estimator: the exact interval hull of box ∩ strip at each step.
 
-    Parameters: see :class:`~boundid.estimators._set_recursion.SetRecursion` (p, prior box
-    ``center0 +- half_widths0``, ``on_outlier``, ``record_every``, ``names``). Cost O(p) per
+    Parameters: see :class:`~boundid.estimators._set_recursion.SetRecursion` (p, the prior box
+    ``prior`` (or center0, shape0), ``on_outlier``, ``record_every``, ``names``). Cost O(p) per
     sample; the history's ln volume is sum_j ln(hi_j - lo_j).
     """
 

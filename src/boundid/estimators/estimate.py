@@ -1,12 +1,15 @@
 """`Estimate`: what every estimator returns, set-membership and statistical alike.
 
 Because every estimator returns one, every comparison (interval widths, volumes, distance to
-truth, containment of the truth) is written once, in the studies and report layers.
+truth, containment of the truth) is written once, in the studies and report layers, against the
+:class:`~boundid.sets.ConvexSet` protocol of ``Estimate.set``. What another layer reads is a typed
+field here; ``info`` holds free-form extras that only a reader of one estimator looks at.
 """
 
 from __future__ import annotations
 
 import textwrap
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -14,10 +17,9 @@ import numpy as np
 import pandas as pd
 
 from boundid.sets.convex import ConvexSet
-from boundid.sets.ellipsoid import Ellipsoid
 
 # "unverified": a set-membership estimator's set that the estimator cannot vouch for (rounding may
-# have moved it off the truth); info["unverified_reason"] says why. Only "guaranteed" is guaranteed.
+# have moved it off the truth); ``unverified_reason`` says why. Only "guaranteed" is guaranteed.
 Kind = Literal["guaranteed", "unverified", "statistical", "point"]
 
 
@@ -28,7 +30,7 @@ class History:
 
     index : (K,) int       sample index (0-based, the row of W just processed)
     centers : (K, p)       estimate after that sample
-    log_volumes : (K,)     ln vol of the set after that sample (NaN for point estimators)
+    log_volumes : (K,)     ln vol of the set after that sample (NaN where the family cannot say)
     shapes : (K, p, p)     ellipsoid shape matrices, only when asked for (teaching pictures)
     """
 
@@ -41,15 +43,48 @@ class History:
         return int(self.index.shape[0])
 
 
+@dataclass(frozen=True)
+class Statistics:
+    """What a statistical estimate knows about its noise (Gaussian, white, independent of the
+    regressors).
+
+    cov : (p, p)             covariance of the centre (parameter units squared)
+    std_err : (p,)           standard errors sqrt(diag cov)
+    rel_std_pct : (p,)       100 std_err / |center| [%]
+    dof : float              residual degrees of freedom (inf when the noise variance is given: Kalman)
+    sigma : float            residual standard deviation of the fit (units of y; WLS: of the
+                             weighted problem, dimensionless, ~1); NaN where not estimated
+    condition_number : float cond(W) (WLS: of the weighted W; the filters: sqrt(cond P))
+    noise_variance : float or {group: float}
+                             variance of one row's measurement noise (units of y squared), for
+                             prediction bands: the residual variance (OLS, RLS), R (Kalman), or
+                             one per group of rows (WLS: per joint)
+    """
+
+    cov: np.ndarray
+    std_err: np.ndarray
+    rel_std_pct: np.ndarray
+    dof: float
+    sigma: float
+    condition_number: float
+    noise_variance: float | Mapping
+
+    def row_noise_variance(self, groups: np.ndarray) -> np.ndarray | float:
+        """The noise variance of each row (N,) given its group label (``Regression.joint``)."""
+        if isinstance(self.noise_variance, Mapping):
+            return np.asarray([self.noise_variance[g] for g in np.asarray(groups).tolist()])
+        return float(self.noise_variance)
+
+
 @dataclass
 class Estimate:
     """The result of an estimator.
 
     method : str               e.g. "OBE-factorized (volume)", "WLS", "RLS"
-    center : (p,)              the point estimate (ellipsoid centre, LS solution)
-    ellipsoid : Ellipsoid      the guaranteed set (``kind="guaranteed"``), the set a guaranteed
+    center : (p,)              the point estimate (set centre, LS solution)
+    set : ConvexSet | None     the guaranteed set (``kind="guaranteed"``), the set a guaranteed
                                estimator could not vouch for (``kind="unverified"``), or the
-                               confidence ellipsoid at ``level`` (``kind="statistical"``); None if none
+                               confidence set at ``level`` (``kind="statistical"``); None if none
     intervals : (lo, hi)       per-parameter bounds, each (p,)
     kind : "guaranteed" | "unverified" | "statistical" | "point"
     level : float | None       confidence level of statistical sets (e.g. 0.95)
@@ -57,15 +92,21 @@ class Estimate:
     history : History | None   per-sample trace of recursive estimators
     outliers : (k,) int        indices of rows that contradicted the bounds (skipped)
     outlier_residuals : (k,)   their innovations y - w^T c at the time they were met
-    info : dict                timings [s], update counts, solver status, std errors ...
-    set : ConvexSet | None     the set itself, of any family (box, zonotope, polytope ...);
-                               defaults to ``ellipsoid``, and ``ellipsoid`` is the set when the
-                               set is an Ellipsoid (None otherwise)
+    n_samples : int            rows processed
+    n_updates : int            rows that changed a set-membership estimate (0 for statistical ones)
+    n_skipped : int            rows whose strip held the whole set (no information)
+    time_s : float             time spent in the estimator [s] (NaN if not measured)
+    statistics : Statistics | None   the noise model of a statistical estimate
+    error_bound : float        guaranteed recursions: first-order bound on the rounding error of
+                               the Mahalanobis^2 (or gauge) of a point of the set (0 if exact)
+    inflation : float          relative enlargement of the reported set that absorbs it
+    unverified_reason : str | None   why a set is "unverified" (None otherwise)
+    info : dict                free-form extras of one estimator (criterion, solver counts ...)
     """
 
     method: str
     center: np.ndarray
-    ellipsoid: Ellipsoid | None
+    set: ConvexSet | None
     intervals: tuple[np.ndarray, np.ndarray]
     kind: Kind
     level: float | None = None
@@ -73,14 +114,15 @@ class Estimate:
     history: History | None = None
     outliers: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     outlier_residuals: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    n_samples: int = 0
+    n_updates: int = 0
+    n_skipped: int = 0
+    time_s: float = float("nan")
+    statistics: Statistics | None = None
+    error_bound: float = 0.0
+    inflation: float = 0.0
+    unverified_reason: str | None = None
     info: dict = field(default_factory=dict)
-    set: ConvexSet | None = None
-
-    def __post_init__(self):
-        if self.set is None:
-            self.set = self.ellipsoid
-        elif self.ellipsoid is None and isinstance(self.set, Ellipsoid):
-            self.ellipsoid = self.set
 
     @property
     def p(self) -> int:
@@ -89,6 +131,15 @@ class Estimate:
     @property
     def guaranteed(self) -> bool:
         return self.kind == "guaranteed"
+
+    @property
+    def set_membership(self) -> bool:
+        """A set-membership estimate: guaranteed, or a guaranteed method's set it could not vouch for."""
+        return self.kind in ("guaranteed", "unverified")
+
+    @property
+    def n_outliers(self) -> int:
+        return int(self.outliers.size)
 
     def parameter_names(self) -> tuple[str, ...]:
         return self.names if self.names is not None else tuple(f"theta{j + 1}" for j in range(self.p))
@@ -104,8 +155,8 @@ class Estimate:
             {"center": self.center, "lo": lo, "hi": hi, "width": hi - lo},
             index=pd.Index(self.parameter_names(), name="parameter"),
         )
-        if "std_err" in self.info:
-            df.insert(1, "std_err", np.asarray(self.info["std_err"]))
+        if self.statistics is not None:
+            df.insert(1, "std_err", np.asarray(self.statistics.std_err))
         return df
 
     def summary(self) -> str:
@@ -120,19 +171,17 @@ class Estimate:
             ("Method", self.method),
             ("Set", set_name),
             ("Parameters", str(self.p)),
+            ("Samples", str(self.n_samples)),
         ]
-        for key, label in (
-            ("n_samples", "Samples"),
-            ("n_updates", "Updates"),
-            ("condition_number", "cond(W)"),
-            ("time_s", "Time [s]"),
-        ):
-            if key in self.info:
-                v = self.info[key]
-                head.append((label, f"{v:.4g}" if isinstance(v, float) else str(v)))
+        if self.set_membership:
+            head.append(("Updates", str(self.n_updates)))
+        if self.statistics is not None:
+            head.append(("cond(W)", f"{self.statistics.condition_number:.4g}"))
+        if np.isfinite(self.time_s):
+            head.append(("Time [s]", f"{self.time_s:.4g}"))
         if self.kind == "unverified":
-            head.append(("Why", self.info.get("unverified_reason", "not given")))
-        if self.kind in ("guaranteed", "unverified") or self.outliers.size:
+            head.append(("Why", self.unverified_reason or "not given"))
+        if self.set_membership or self.outliers.size:
             head.append(("Outliers", str(self.outliers.size)))
         if self.set is not None:
             head.append(("ln volume", f"{self.set.log_volume():.6g}"))

@@ -13,7 +13,7 @@ so H_k = w_k^T (1, p). One step (predict, then update):
 With Q = 0 and r = 1 this is RLS without forgetting (:class:`boundid.estimators.rls.RLS`), term for
 term. The noise variance is known here (r), so P is the covariance itself: the confidence
 ellipsoid is {x : (x - theta)^T P^-1 (x - theta) <= chi2_{level, p}} and the intervals
-theta_j -+ z_{(1+level)/2} sqrt(P_jj) (normal quantile; info["dof"] = inf).
+theta_j -+ z_{(1+level)/2} sqrt(P_jj) (normal quantile; ``statistics.dof`` = inf).
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from scipy import stats
 from boundid._validation import as_float_array
 from boundid.errors import InputError, NumericalError
 from boundid.estimators.estimate import Estimate
+from boundid.estimators.protocol import check_p
 from boundid.estimators.rls import LinearFilter
 from boundid.sets.ellipsoid import log_unit_ball_volume
 
@@ -60,34 +61,36 @@ def _check_q(Q, p: int) -> np.ndarray:
 
 
 class KalmanEstimator(LinearFilter):
-    """Linear Kalman filter on the parameters, built on ``filterpy.kalman.KalmanFilter``.
+    """Linear Kalman filter on the parameters, built on ``filterpy.kalman.KalmanFilter`` (the
+    estimator protocol of :mod:`boundid.estimators.protocol`).
 
     Parameters
     ----------
     p : int                 number of parameters
-    theta0 : (p,)           prior mean (None: zeros)
-    P0 : (p, p) or scalar   prior covariance (scalar: P0 * I; None: 1000 I as in the direct-drive paper)
-    R : float               measurement noise variance of each row (units of y squared); ``fit`` and
-                            ``update`` accept a per-row override
+    prior : Ellipsoid or Box   the prior: mean = its centre, covariance = its shape; or, without it,
+    center0 : (p,) or scalar   prior mean (default 0)
+    shape0 : (p, p), (p,) or scalar   prior covariance (scalar s: s I; default 1000 I as in the
+                            direct-drive paper)
+    R : float               measurement noise variance of each row (units of y squared); ``fit``,
+                            ``partial_fit`` and ``update`` accept a per-row override
     Q : float or (p, p)     random-walk covariance added to P before each row (scalar: Q * I); 0 = constant
     record_every, names, level   as in :class:`boundid.estimators.rls.RLS`
 
     The filterpy object is ``self.kf``; ``theta`` and ``P`` read and write its ``x`` and ``P``.
-    ``update`` runs filterpy; ``fit(..., engine="numba")`` (default) runs the compiled loop shared
-    with RLS, ``engine="filterpy"`` the filterpy reference loop. Both continue from the current state.
+    ``update`` runs filterpy; ``partial_fit(..., engine="numba")`` (default) runs the compiled loop
+    shared with RLS, ``engine="filterpy"`` the filterpy reference loop.
     """
 
-    def __init__(self, p, theta0, P0, R, Q=0.0, record_every=1, names=None, level=0.95):
-        if not (isinstance(p, int | np.integer) and p >= 1):
-            raise InputError(f"p (number of parameters) must be a positive integer, got {p!r}.")
-        self.kf = KalmanFilter(dim_x=int(p), dim_z=1)
-        super().__init__(p, theta0, P0, record_every, names, level)
+    def __init__(self, p, *, prior=None, center0=None, shape0=None, R=1.0, Q=0.0, record_every=1, names=None,
+                 level=0.95):
+        self.kf = KalmanFilter(dim_x=check_p(p), dim_z=1)
         self.R = float(_check_r(R, None)[0])
-        Q = _check_q(Q, self.p)
+        Q = _check_q(Q, check_p(p))
         self.Q = Q
-        self.kf.F = np.eye(self.p)
+        self.kf.F = np.eye(int(p))
         self.kf.Q = Q.copy()
         self.kf.R = np.array([[self.R]])
+        super().__init__(p, prior, center0, shape0, record_every, names, level)
 
     @property
     def theta(self) -> np.ndarray:
@@ -123,19 +126,20 @@ class KalmanEstimator(LinearFilter):
         self.n += 1
         return innov
 
-    def update(self, w, y, R=None) -> float:
-        """One row through filterpy (R: this row's variance, default ``self.R``); returns the innovation."""
+    def update(self, w, y, R=None) -> Estimate:
+        """One row through filterpy (R: this row's variance, default ``self.R``); returns :meth:`estimate`."""
         t0 = time.perf_counter()
         w, y = self._check_row(w, y)
         r = self.R if R is None else float(_check_r(R, None)[0])
-        innov = self._filterpy_step(w, y, r)  # leaves the state unchanged if it raises
+        self._filterpy_step(w, y, r)  # leaves the state unchanged if it raises
         self.logdet = float(np.linalg.slogdet(self.P)[1])
         self._record_one()
         self.time_s += time.perf_counter() - t0
-        return innov
+        return self.estimate()
 
-    def fit(self, W, y, R=None, engine: str = "numba") -> Estimate:
-        """Process the rows of W (N, p) against y (N,); R: scalar or (N,) variances (default ``self.R``).
+    def partial_fit(self, W, y, R=None, engine: str = "numba") -> Estimate:
+        """Process the rows of W (N, p) against y (N,), continuing from the current state; R: scalar
+        or (N,) variances (default ``self.R``).
 
         engine="numba" runs the compiled loop; engine="filterpy" calls filterpy row by row.
         """
@@ -169,7 +173,9 @@ class KalmanEstimator(LinearFilter):
         return log_unit_ball_volume(self.p) + 0.5 * self.p * np.log(chi2) + 0.5 * logdet
 
     def estimate(self) -> Estimate:
-        """The current state as a statistical Estimate; info["nis"] = mean normalised innovation^2 (~1)."""
+        """The current state as a statistical Estimate: the noise variance is R (given, so
+        ``statistics.sigma`` is NaN and the dof infinite); info["nis"] = mean normalised
+        innovation^2 (~1 when R is right)."""
         q_on = bool(np.any(self.Q != 0))
         return self._estimate(
             "Kalman (random walk)" if q_on else "Kalman",
@@ -177,5 +183,7 @@ class KalmanEstimator(LinearFilter):
             stats.chi2.ppf(self.level, self.p),
             stats.norm.ppf(0.5 * (1.0 + self.level)),
             np.inf,
+            float("nan"),
+            self.R,
             {"nis": self.J / self.n if self.n else np.nan, "R": self.R, "Q": self.Q},
         )

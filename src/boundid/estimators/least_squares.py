@@ -12,13 +12,14 @@ Statistics (Gaussian, homoscedastic noise after weighting; [Gautier1997], [Gauti
 - intervals              theta_j -+ t_{(1+level)/2, N-p} sigma_j                   (Student t)
 - ellipsoid              {x : (x - theta)^T C^-1 (x - theta) <= chi2_{level, p}}   (chi-square, p dof)
 
-These are *statistical* sets (kind="statistical", info["guaranteed"] = False): they hold the
-truth with probability ``level`` under the noise model, never with certainty.
+These are *statistical* sets (kind="statistical"): they hold the truth with probability ``level``
+under the noise model, never with certainty.
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 import scipy.linalg
@@ -26,7 +27,8 @@ from scipy import stats
 
 from boundid._validation import as_regression
 from boundid.errors import InputError
-from boundid.estimators.estimate import Estimate
+from boundid.estimators.estimate import Estimate, Statistics
+from boundid.estimators.protocol import check_names
 from boundid.sets.ellipsoid import Ellipsoid
 
 
@@ -56,16 +58,6 @@ def check_level(level: float) -> float:
     if not 0.0 < lv < 1.0:
         raise InputError(f"level must lie strictly between 0 and 1 (e.g. 0.95), got {level}.")
     return lv
-
-
-def check_names(names, p: int) -> tuple[str, ...] | None:
-    """``None`` or a tuple of ``p`` parameter names."""
-    if names is None:
-        return None
-    names = tuple(str(n) for n in names)
-    if len(names) != p:
-        raise InputError(f"{len(names)} parameter names given for {p} parameters; give one name per column of W.")
-    return names
 
 
 def format_combination(coef: np.ndarray, names: tuple[str, ...]) -> str:
@@ -127,7 +119,7 @@ def _svd_solve(W: np.ndarray, y: np.ndarray, names: tuple[str, ...] | None, what
     return theta, 0.5 * (inv_info + inv_info.T), s
 
 
-def _statistical_estimate(method, theta, cov, s, dof, level, names, n_samples, t0, extra) -> Estimate:
+def _statistical_estimate(method, theta, cov, s, dof, sigma, level, names, n_samples, t0, extra) -> Estimate:
     p = theta.shape[0]
     std = np.sqrt(np.diag(cov))
     with np.errstate(divide="ignore"):
@@ -144,26 +136,20 @@ def _statistical_estimate(method, theta, cov, s, dof, level, names, n_samples, t
             np.zeros((0, p)),
             p,
         ) from None
-    info = {
-        "guaranteed": False,
-        "n_samples": int(n_samples),
-        "dof": int(dof),
-        "std_err": std,
-        "rel_std_pct": rel,
-        "cov": cov,
-        "condition_number": float(s[0] / s[-1]),
-        **extra,
-        "time_s": time.perf_counter() - t0,
-    }
+    statistics = Statistics(cov=cov, std_err=std, rel_std_pct=rel, dof=int(dof), sigma=sigma,
+                            condition_number=float(s[0] / s[-1]), noise_variance=sigma**2)
     return Estimate(
         method=method,
         center=theta,
-        ellipsoid=ell,
+        set=ell,
         intervals=(theta - tq * std, theta + tq * std),
         kind="statistical",
         level=level,
         names=names,
-        info=info,
+        n_samples=int(n_samples),
+        time_s=time.perf_counter() - t0,
+        statistics=statistics,
+        info=extra,
     )
 
 
@@ -186,9 +172,9 @@ def ols(W, y, level: float = 0.95, names=None) -> Estimate:
     level : float confidence level of the intervals and of the ellipsoid, in (0, 1)
     names : p parameter names (used in the report and in the rank-deficiency message)
 
-    Returns an :class:`Estimate` with kind="statistical"; ``info`` holds n_samples, dof = N - p,
-    sigma (residual standard deviation, units of y), rss, std_err (p,), rel_std_pct (p,),
-    cov (p, p), condition_number of W, time_s and guaranteed=False.
+    Returns an :class:`Estimate` with kind="statistical", n_samples, time_s and ``statistics``:
+    dof = N - p, sigma (residual standard deviation, units of y; the noise variance is sigma^2),
+    std_err (p,), rel_std_pct (p,), cov (p, p), condition_number of W; ``info["rss"]``.
     Raises :class:`RankDeficientError` (an InputError) when W has rank < p.
     """
     t0 = time.perf_counter()
@@ -201,9 +187,8 @@ def ols(W, y, level: float = 0.95, names=None) -> Estimate:
     r = y - W @ theta
     rss = float(r @ r)
     sigma2 = rss / dof
-    return _statistical_estimate(
-        "OLS", theta, sigma2 * inv_info, s, dof, level, names, N, t0, {"sigma": np.sqrt(sigma2), "rss": rss}
-    )
+    return _statistical_estimate("OLS", theta, sigma2 * inv_info, s, dof, float(np.sqrt(sigma2)), level, names, N, t0,
+                                 {"rss": rss})
 
 
 def wls(W, y, groups, level: float = 0.95, names=None) -> Estimate:
@@ -225,9 +210,10 @@ def wls(W, y, groups, level: float = 0.95, names=None) -> Estimate:
     groups : (N,)          group label of each row, e.g. ``Regression.joint``
     level, names           as in :func:`ols`
 
-    ``info`` adds sigma_groups {label: sigma_j} (units of y), groups (labels, sorted),
-    sigma_group_values (array in that order); condition_number is that of the weighted W and
-    sigma the residual standard deviation of the weighted problem (dimensionless, ~1).
+    ``statistics.noise_variance`` is {label: sigma_j^2} (units of y squared), the noise of each
+    group's rows; its condition_number is that of the weighted W and sigma the residual standard
+    deviation of the weighted problem (dimensionless, ~1). ``info`` adds sigma_groups
+    {label: sigma_j} (units of y), groups (labels, sorted) and sigma_group_values (in that order).
     """
     t0 = time.perf_counter()
     W, y = as_regression(W, y)
@@ -262,13 +248,9 @@ def wls(W, y, groups, level: float = 0.95, names=None) -> Estimate:
     row_w = 1.0 / sig[inverse]
     Ws, ys = W * row_w[:, None], y * row_w
     est = ols(Ws, ys, level=level, names=names)
+    sigma_groups = {lab.item(): float(s) for lab, s in zip(labels, sig, strict=True)}
     est.method = "WLS"
-    est.info.update(
-        {
-            "sigma_groups": {lab.item(): float(s) for lab, s in zip(labels, sig, strict=True)},
-            "groups": labels,
-            "sigma_group_values": sig,
-            "time_s": time.perf_counter() - t0,
-        }
-    )
+    est.time_s = time.perf_counter() - t0
+    est.statistics = replace(est.statistics, noise_variance={g: s**2 for g, s in sigma_groups.items()})
+    est.info.update({"sigma_groups": sigma_groups, "groups": labels, "sigma_group_values": sig})
     return est

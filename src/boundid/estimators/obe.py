@@ -46,10 +46,11 @@ import time
 
 import numpy as np
 
-from boundid._validation import as_bounds, as_float_array, as_regression, as_spd, as_vector
+from boundid._validation import as_bounds, as_float_array, as_regression
 from boundid.errors import InfeasibleDataError, InputError, SolverError
 from boundid.estimators import _obe_kernels as K
 from boundid.estimators.estimate import Estimate, History
+from boundid.estimators.protocol import RecursiveEstimator, ellipsoid_prior
 from boundid.sets.ellipsoid import Ellipsoid, log_unit_ball_volume
 
 FORMS = ("standard", "factorized")
@@ -63,33 +64,25 @@ INFLATION_FACTOR = 10.0
 VOUCH_MAX = 1e-4
 # Rows per compiled call: bounds the history buffers of a long fit (records after every update).
 CHUNK_ROWS = 1 << 16
+#: shape0 when no prior is given: the ball of radius 1000 about center0
+DEFAULT_SHAPE0 = 1e6
 
 
-def _shape_matrix(shape0, p: int) -> np.ndarray:
-    S = as_float_array(shape0, "shape0")
-    if S.ndim == 0:
-        S = np.full(p, float(S))
-    if S.ndim == 1:
-        S = as_vector(S, "shape0", p)
-        if np.any(S <= 0):
-            raise InputError("shape0 given as a vector holds squared semi-axes; all must be > 0.")
-        S = np.diag(S)
-    return as_spd(S, "shape0", p)
-
-
-class OBE:
-    """Recursive Optimal Bounding Ellipsoid estimator (guaranteed set).
+class OBE(RecursiveEstimator):
+    """Recursive Optimal Bounding Ellipsoid estimator (guaranteed set); the estimator protocol of
+    :mod:`boundid.estimators.protocol` (fit starts from E0; partial_fit and update continue).
 
     Parameters
     ----------
     p : int
         Number of parameters.
-    center0 : (p,) array, default 0
-        Centre of the initial ellipsoid E0 (a-priori parameter values).
-    shape0 : float, (p,) or (p, p) array, default 1e6
-        Shape of E0 = {theta : (theta - c0)^T shape0^-1 (theta - c0) <= 1} (units: parameter
-        units squared). A scalar s means s * I (a ball of radius sqrt(s)); a vector the diagonal.
-        The guarantee needs the true parameters inside E0.
+    prior : Box or Ellipsoid, optional
+        The initial set: an Ellipsoid is E0 itself, a box center +- h the ellipsoid circumscribing
+        it (semi-axes sqrt(p) h: the H4 paper starts from its design values and ranges).
+    center0 : (p,) array or scalar, default 0;  shape0 : float, (p,) or (p, p) array, default 1e6
+        E0 = {theta : (theta - c0)^T shape0^-1 (theta - c0) <= 1} when no ``prior`` is given
+        (units: parameter units squared). A scalar s means s * I (a ball of radius sqrt(s)); a
+        vector the diagonal. The guarantee needs the true parameters inside E0.
     criterion : "volume" | "trace" | "dasgupta-huang"
         What each step's weight minimises: the volume (Fogel-Huang), the trace of the shape
         matrix (sum of squared semi-axes), or sigma (Dasgupta-Huang, capped at ``alpha_max``).
@@ -116,13 +109,13 @@ class OBE:
 
     Notes
     -----
-    ``info`` of the returned Estimate: n_samples, n_updates (update steps computed), n_skipped
-    (strips with no information), n_outliers, time_s (compiled loops only), criterion, form,
-    selective, sigma, n_breakdowns (0: an estimate is only built from a sound state), error_bound
-    (first-order bound on the rounding error of the Mahalanobis^2 of a point of the set),
-    inflation (the relative enlargement of the reported shape that absorbs it: 10 x error_bound
-    for a guaranteed set, 0 for an unverified one) and, when kind is "unverified",
-    unverified_reason. Building the Estimate raises SolverError when the
+    The returned Estimate has n_samples, n_updates (update steps computed), n_skipped (strips
+    with no information), time_s (compiled loops only), error_bound (first-order bound on the
+    rounding error of the Mahalanobis^2 of a point of the set), inflation (the relative
+    enlargement of the reported shape that absorbs it: 10 x error_bound for a guaranteed set, 0
+    for an unverified one) and, when kind is "unverified", unverified_reason; its ``info`` holds
+    criterion, form, selective, sigma and n_breakdowns (0: an estimate is only built from a sound
+    state). Building the Estimate raises SolverError when the
     recursion proved its state corrupt: M^-1 indefinite on some row (w^T M^-1 w <= 0, the row then
     skipped, or a diagonal entry <= 0; counted in ``n_breakdowns``), sigma outside (0, 1], or a set
     that cannot be written as a positive definite shape matrix.
@@ -130,12 +123,10 @@ class OBE:
     divides [X, z] by sqrt(sigma)); the ellipsoid is the same.
     """
 
-    def __init__(self, p: int, center0=None, shape0=1e6, *, criterion: str = "volume", form: str = "factorized",
-                 on_outlier: str = "skip", record_every: int | None = None, record_shapes: bool = False,
-                 selective: bool = True, alpha_max: float = 0.9, names=None):
-        if not (isinstance(p, int | np.integer) and p >= 1):
-            raise InputError(f"p must be a positive integer (number of parameters), got {p!r}.")
-        self.p = int(p)
+    def __init__(self, p: int, *, prior=None, center0=None, shape0=None, criterion: str = "volume",
+                 form: str = "factorized", on_outlier: str = "skip", record_every: int | None = None,
+                 record_shapes: bool = False, selective: bool = True, alpha_max: float = 0.9, names=None):
+        super().__init__(p, names)
         if criterion not in K.CRITERIA:
             raise InputError(f"criterion must be one of {tuple(K.CRITERIA)}, got {criterion!r}.")
         if form not in FORMS:
@@ -147,17 +138,16 @@ class OBE:
                              f"got {record_every!r}.")
         if not (0.0 < alpha_max < 1.0):
             raise InputError(f"alpha_max must lie in (0, 1), got {alpha_max!r}.")
-        if names is not None:
-            names = tuple(str(s) for s in names)
-            if len(names) != self.p:
-                raise InputError(f"names must hold {self.p} names, got {len(names)}.")
         self.criterion, self.form, self.on_outlier = criterion, form, on_outlier
         self.record_every = None if record_every is None else int(record_every)
         self.record_shapes = bool(record_shapes)
-        self.selective, self.alpha_max, self.names = bool(selective), float(alpha_max), names
+        self.selective, self.alpha_max = bool(selective), float(alpha_max)
+        self._c0, self._S0 = ellipsoid_prior(self.p, prior, center0, shape0, DEFAULT_SHAPE0)
+        self.reset()
 
-        c0 = np.zeros(self.p) if center0 is None else as_vector(center0, "center0", self.p)
-        S0 = _shape_matrix(shape0, self.p)
+    def reset(self) -> None:
+        """Back to E0: forget every row."""
+        c0, S0 = self._c0, self._S0
         self.center = c0.copy()
         M0 = np.linalg.inv(S0)
         M0 = 0.5 * (M0 + M0.T)
@@ -166,7 +156,7 @@ class OBE:
         self._state[K.S_LOGDET] = np.linalg.slogdet(M0)[1]
         self._state[K.S_TRACE] = np.trace(S0)
         self._state[K.S_OMEGA] = K.scaled_inverse_norm(S0, np.zeros((self.p, self.p)), np.empty(self.p))
-        if form == "standard":
+        if self.form == "standard":
             self._P = S0.copy()
         else:
             self._X = np.ascontiguousarray(np.linalg.cholesky(M0).T)  # M = X^T X, X upper
@@ -177,28 +167,10 @@ class OBE:
         self._outliers: list[np.ndarray] = []
         self._outlier_res: list[np.ndarray] = []
 
-    @classmethod
-    def from_prior(cls, center, half_widths, **kwargs) -> OBE:
-        """An OBE starting from prior values and ranges: E0 = the ellipsoid circumscribing the box
-        center +- half_widths, i.e. semi-axes sqrt(p) * half_widths (the H4 paper starts from its
-        design values). Other keyword arguments go to :class:`OBE`."""
-        c = as_vector(center, "center")
-        h = np.broadcast_to(as_float_array(half_widths, "half_widths"), c.shape).astype(float)
-        as_vector(h, "half_widths", c.shape[0])
-        if np.any(h <= 0):
-            raise InputError("half_widths must all be > 0 (a zero range pins the parameter: remove it instead).")
-        p = c.shape[0]
-        return cls(p, c, p * h**2, **kwargs)
-
     # ------------------------------------------------------------------ recursion
-    def fit(self, W, y, e_max) -> Estimate:
+    def partial_fit(self, W, y, e_max) -> Estimate:
         """Process the rows of W (N, p), y (N,) with bounds e_max (scalar or (N,)), continuing
         from the current state, in one compiled loop. Returns :meth:`estimate`."""
-        return self.partial_fit(W, y, e_max).estimate()
-
-    def partial_fit(self, W, y, e_max) -> OBE:
-        """As :meth:`fit`, but return the estimator itself without building the Estimate (for
-        row-by-row use where the next row depends on the current centre)."""
         W, y = as_regression(W, y)
         if W.shape[1] != self.p:
             raise InputError(f"W must have {self.p} columns (one per parameter), got {W.shape[1]}.")
@@ -207,7 +179,7 @@ class OBE:
         for start in range(0, W.shape[0], CHUNK_ROWS):  # bounded history buffers
             stop = start + CHUNK_ROWS
             self._run(W[start:stop], y[start:stop], e[start:stop])
-        return self
+        return self.estimate()
 
     def _run(self, W, y, e) -> None:
         """One compiled loop over checked rows; appends history and outliers."""
@@ -249,11 +221,6 @@ class OBE:
                 f"(innovation {out_res[n_out - 1]:.6g}, bound {e[processed]:.6g}). The data are inconsistent "
                 "with e_max (raise the bounds) or that sample is an outlier (use on_outlier='skip')."
             )
-
-    def update(self, w, y, e_max) -> Estimate:
-        """Process one observation y = w^T theta + e, |e| <= e_max."""
-        w = as_vector(w, "w", self.p)
-        return self.fit(w.reshape(1, -1), as_vector(y, "y", 1), e_max)
 
     # ------------------------------------------------------------------ results
     @property
@@ -365,33 +332,32 @@ class OBE:
 
     def estimate(self) -> Estimate:
         """The current set as an :class:`Estimate`: kind "guaranteed" when the estimator can vouch for
-        it, else "unverified" with ``info["unverified_reason"]``."""
+        it, else "unverified" with ``unverified_reason``."""
         self._check_state()
         S, conversion = self._shape_and_error()
         bound = float(self._state[K.S_BOUND]) + conversion
         reason = self._unverified_reason(bound, conversion)
         inflation = INFLATION_FACTOR * bound if reason is None else 0.0
         E = self._ellipsoid(S * (1.0 + inflation))
-        idx, cs, lvs, Ss = zip(*self._hist, strict=True) if self._hist else ((), (), (), ())
-        p = self.p
-        history = History(
-            index=np.concatenate(idx) if idx else np.zeros(0, np.int64),
-            centers=np.concatenate(cs) if cs else np.zeros((0, p)),
-            log_volumes=np.concatenate(lvs) if lvs else np.zeros(0),
-            shapes=np.concatenate(Ss) if self.record_shapes and Ss else None,
-        )
-        outliers = np.concatenate(self._outliers) if self._outliers else np.zeros(0, np.int64)
-        residuals = np.concatenate(self._outlier_res) if self._outlier_res else np.zeros(0)
-        info = {
-            "n_samples": self.n_samples, "n_updates": self.n_updates, "n_skipped": self.n_skipped,
-            "n_outliers": int(outliers.size), "time_s": self.time_s, "criterion": self.criterion,
-            "form": self.form, "selective": self.selective, "sigma": self.sigma,
-            "n_breakdowns": self.n_breakdowns, "error_bound": bound, "inflation": inflation,
-        }
-        if reason is not None:
-            info["unverified_reason"] = reason
+        if len(self._hist) > 1:  # merge once; later estimates reuse the merged arrays
+            idx, cs, lvs, Ss = zip(*self._hist, strict=True)
+            self._hist = [(np.concatenate(idx), np.concatenate(cs), np.concatenate(lvs),
+                           np.concatenate(Ss) if self.record_shapes else None)]
+        for name in ("_outliers", "_outlier_res"):
+            if len(getattr(self, name)) > 1:
+                setattr(self, name, [np.concatenate(getattr(self, name))])
+        idx, cs, lvs, Ss = self._hist[0] if self._hist else (np.zeros(0, np.int64), np.zeros((0, self.p)),
+                                                               np.zeros(0), None)
+        history = History(index=idx.copy(), centers=cs.copy(), log_volumes=lvs.copy(),
+                          shapes=Ss.copy() if self.record_shapes and Ss is not None else None)
+        outliers = self._outliers[0].copy() if self._outliers else np.zeros(0, np.int64)
+        residuals = self._outlier_res[0].copy() if self._outlier_res else np.zeros(0)
+        info = {"criterion": self.criterion, "form": self.form, "selective": self.selective, "sigma": self.sigma,
+                "n_breakdowns": self.n_breakdowns}
         return Estimate(
-            method=f"OBE-{self.form} ({self.criterion})", center=E.center.copy(), ellipsoid=E,
+            method=f"OBE-{self.form} ({self.criterion})", center=E.center.copy(), set=E,
             intervals=E.intervals(), kind="guaranteed" if reason is None else "unverified", names=self.names,
-            history=history, outliers=outliers, outlier_residuals=residuals, info=info,
+            history=history, outliers=outliers, outlier_residuals=residuals, n_samples=self.n_samples,
+            n_updates=self.n_updates, n_skipped=self.n_skipped, time_s=self.time_s, error_bound=bound,
+            inflation=inflation, unverified_reason=reason, info=info,
         )

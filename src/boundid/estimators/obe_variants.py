@@ -12,8 +12,9 @@ more than one strip at a time.
   reset is taken when that ellipsoid is the smaller. Each window's strips are then enclosed
   jointly instead of one at a time.
 
-Both start from the ellipsoid circumscribing the prior box (:meth:`OBE.from_prior`) and return
-the ellipsoid (``Estimate.set`` and ``Estimate.ellipsoid``).
+Both start from the ellipsoid circumscribing the prior box (an :class:`OBE` with ``prior=`` the
+box) and return the ellipsoid as ``Estimate.set``; a segment whose OBE could not vouch for its
+set makes the result "unverified", with the OBE's reason.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from boundid.errors import InfeasibleDataError, InputError, SolverError
 from boundid.estimators._set_kernels import ROUND_GUARD
 from boundid.estimators._set_recursion import Run, SetRecursion
 from boundid.estimators.obe import OBE
+from boundid.sets.box import Box
 from boundid.sets.ellipsoid import Ellipsoid
 from boundid.sets.polytope import Polytope
 
@@ -38,14 +40,14 @@ class _OBEVariant(SetRecursion):
         # sit exactly on the ellipsoid's boundary, to rounding
         c0, h0 = self.prior.center, self.prior.half_widths
         self._box = (c0, h0 + ROUND_GUARD * (np.abs(c0) + h0))
-        self.ellipsoid = OBE.from_prior(*self._box).ellipsoid()
+        self.ellipsoid = OBE(self.p, prior=Box.from_center(*self._box)).ellipsoid()
 
     def _segment(self, W, y, e, n_pre: int, k0: int, acc: dict) -> int:
         """Run an OBE from the current ellipsoid over the rows of W: the first ``n_pre`` are
         prior rows, the others the global samples k0, k0 + 1, ... Appends the samples' records,
         outliers and counts to ``acc``; returns the number of samples processed (fewer than given
         when an outlier stops the run with on_outlier="raise")."""
-        obe = OBE(self.p, self.ellipsoid.center, self.ellipsoid.shape, on_outlier=self.on_outlier)
+        obe = OBE(self.p, prior=self.ellipsoid, on_outlier=self.on_outlier)
         try:
             est = obe.fit(W, y, e)
             processed = W.shape[0]
@@ -55,7 +57,7 @@ class _OBEVariant(SetRecursion):
         if processed < n_pre or np.any(est.outliers < n_pre):
             raise InfeasibleDataError(
                 "a side of the prior box misses the current ellipsoid: the data say the true parameters are "
-                "not inside the prior box. Widen half_widths0 or check center0.")
+                "not inside the prior box. Widen the prior or check its centre.")
         h = est.history
         sel = h.index >= n_pre
         acc["idx"].append(h.index[sel] - n_pre + k0)
@@ -63,9 +65,11 @@ class _OBEVariant(SetRecursion):
         acc["lv"].append(h.log_volumes[sel])
         acc["out"].append(est.outliers - n_pre + k0)
         acc["res"].append(est.outlier_residuals)
-        acc["upd"] += est.info["n_updates"]
-        acc["skip"] += est.info["n_skipped"]
-        self.ellipsoid = est.ellipsoid
+        acc["upd"] += est.n_updates
+        acc["skip"] += est.n_skipped
+        if est.kind == "unverified" and self.unverified_reason is None:
+            self.unverified_reason = est.unverified_reason
+        self.ellipsoid = est.set
         return processed - n_pre
 
     def _pack(self, processed: int, acc: dict) -> Run:
@@ -91,7 +95,7 @@ class BoxedOBE(_OBEVariant):
     samples (default 100 p): the ellipsoid encloses E ∩ prior box at those steps.
 
     Parameters: ``box_every`` and those of :class:`~boundid.estimators._set_recursion.SetRecursion`
-    (p, prior box ``center0 +- half_widths0``, ``on_outlier``, ``record_every``, ``names``).
+    (p, the prior box ``prior`` (or center0, shape0), ``on_outlier``, ``record_every``, ``names``).
     Cost: the OBE's O(p^2) per sample, plus p box strips (O(p^3)) every ``box_every`` samples.
     """
 

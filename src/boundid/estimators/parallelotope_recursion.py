@@ -57,8 +57,8 @@ def parallelotope_step(c: np.ndarray, G: np.ndarray, w: np.ndarray, y: float, e:
 class ParallelotopeRecursion(SetRecursion):
     """Recursive parallelotope estimator: the least-volume candidate of the p + 1 at each step.
 
-    Parameters: see :class:`~boundid.estimators._set_recursion.SetRecursion` (p, prior box
-    ``center0 +- half_widths0``, ``on_outlier``, ``record_every``, ``names``). Starts from the
+    Parameters: see :class:`~boundid.estimators._set_recursion.SetRecursion` (p, the prior box
+    ``prior`` (or center0, shape0), ``on_outlier``, ``record_every``, ``names``). Starts from the
     prior box; cost O(p^2) per sample; ln volume = p ln 2 + ln |det G|.
     """
 

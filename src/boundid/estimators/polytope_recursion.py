@@ -138,8 +138,8 @@ class PolytopeRecursion(SetRecursion):
     update: O(n_in n_out k) for the adjacency test (n vertices, k facets); a strip that does not
     cut costs O(n p). The history's ln volume is Qhull's.
 
-    Parameters: see :class:`~boundid.estimators._set_recursion.SetRecursion` (p <= 4, prior box
-    ``center0 +- half_widths0``, ``on_outlier``, ``record_every``, ``names``).
+    Parameters: see :class:`~boundid.estimators._set_recursion.SetRecursion` (p <= 4, the prior box
+    ``prior`` (or center0, shape0), ``on_outlier``, ``record_every``, ``names``).
     """
 
     method = "Exact polytope recursion"

@@ -1,8 +1,9 @@
 """Recursive least squares (RLS) with exponential forgetting, and its compiled loop.
 
-The direct-drive paper ([DirectDrivePaper] eqs. 18-21) runs the standard RLS on each regression model with
-theta(0) = 0 and P(0) = 1000 I; those are this class's defaults. One step, for a row w (p,) and a
-measurement y, with forgetting factor lambda in (0, 1]:
+The direct-drive paper ([DirectDrivePaper] eqs. 18-21) runs the standard RLS on each regression
+model with theta(0) = 0 and P(0) = 1000 I; those are this class's defaults (the prior ellipsoid
+center0 = theta(0), shape0 = P(0) of the estimator protocol, :mod:`boundid.estimators.protocol`).
+One step, for a row w (p,) and a measurement y, with forgetting factor lambda in (0, 1]:
 
     e     = y - w^T theta                     (a-priori error)
     u     = P w,  d = lambda + w^T u
@@ -14,7 +15,7 @@ random-walk covariance Q added to P before each step, is the linear Kalman filte
 parameters as state (:mod:`boundid.estimators.kalman` reuses :func:`filter_loop`).
 
 Confidence set. RLS minimises J(theta) = sum_i lambda^(k-i) (y_i - w_i^T theta)^2 + lambda^k
-(theta - theta0)^T P0^-1 (theta - theta0); its minimum obeys J_k = lambda (J_{k-1} + e^2 / d), and
+(theta - theta(0))^T P(0)^-1 (theta - theta(0)); its minimum obeys J_k = lambda (J_{k-1} + e^2 / d), and
 P is the inverse of its Hessian / 2. With n_eff = sum_i lambda^(k-i) (= k when lambda = 1) the
 residual variance estimate is sigma^2 = J_k / (n_eff - p), the covariance sigma^2 P, the ellipsoid
 {x : (x - theta)^T (sigma^2 P)^-1 (x - theta) <= chi2_{level, p}} and the intervals
@@ -38,10 +39,11 @@ import numpy as np
 from numba import njit
 from scipy import stats
 
-from boundid._validation import as_regression, as_spd, as_vector
+from boundid._validation import as_regression, as_vector
 from boundid.errors import InputError, NumericalError
-from boundid.estimators.estimate import Estimate, History
-from boundid.estimators.least_squares import check_level, check_names
+from boundid.estimators.estimate import Estimate, History, Statistics
+from boundid.estimators.least_squares import check_level
+from boundid.estimators.protocol import RecursiveEstimator, ellipsoid_prior
 from boundid.sets.ellipsoid import Ellipsoid, log_unit_ball_volume
 
 PAPER_P0 = 1000.0  # direct-drive paper, section 6: P(0) = diag(1000, ..., 1000), theta(0) = 0
@@ -148,39 +150,45 @@ def filter_loop(W, y, r, inv_lam, Q, theta, P, state, record_every, n0, status):
     return rec_idx, rec_c, rec_ld, rec_j, rec_n
 
 
-class LinearFilter(ABC):
+class LinearFilter(RecursiveEstimator, ABC):
     """State, history and bookkeeping shared by :class:`RLS` and the Kalman estimator.
 
     Holds theta (p,), P (p, p), ln det P, the weighted cost J, the effective sample count n_eff,
-    the number of samples n and the recorded history chunks.
+    the number of samples n and the recorded history chunks. The prior, in the vocabulary of the
+    estimator protocol: ``prior`` (an Ellipsoid; a Box is read as its circumscribing ellipsoid), or
+    ``center0`` (theta(0), default 0) and ``shape0`` (P(0), default 1000 I, the direct-drive paper's).
     """
 
-    def __init__(self, p, theta0, P0, record_every, names, level):
-        if not (isinstance(p, int | np.integer) and p >= 1):
-            raise InputError(f"p (number of parameters) must be a positive integer, got {p!r}.")
-        self.p = int(p)
-        theta0 = np.zeros(self.p) if theta0 is None else theta0
-        self.theta = as_vector(theta0, "theta0", self.p).copy()
-        if P0 is None:
-            P0 = PAPER_P0
-        P0 = np.asarray(P0, dtype=float)
-        if P0.ndim == 0:
-            if not (np.isfinite(P0) and P0 > 0):
-                raise InputError(f"P0 must be > 0 (a scalar means P0 * I), got {P0}.")
-            P0 = float(P0) * np.eye(self.p)
-        self.P = as_spd(P0, "P0", self.p).copy()
-        self._p0_max = float(np.max(np.diag(self.P)))
+    def __init__(self, p, prior, center0, shape0, record_every, names, level):
+        super().__init__(p, names)
+        self._theta0, self._P0 = ellipsoid_prior(self.p, prior, center0, shape0, PAPER_P0)
+        self._p0_max = float(np.max(np.diag(self._P0)))
         if not (isinstance(record_every, int | np.integer) and record_every >= 0):
             raise InputError(f"record_every must be an integer >= 0 (0: no history), got {record_every!r}.")
         self.record_every = int(record_every)
-        self.names = check_names(names, self.p)
         self.level = check_level(level)
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to the prior (theta(0), P(0)): forget every row."""
+        self.theta = self._theta0.copy()
+        self.P = self._P0.copy()
         self.logdet = float(np.linalg.slogdet(self.P)[1])
         self.J = 0.0
         self.n_eff = 0.0
         self.n = 0
         self.time_s = 0.0
         self._chunks: list[tuple[np.ndarray, ...]] = []
+
+    def fit(self, W, y, *args, **kwargs) -> Estimate:
+        """Start from the prior and process the rows of W (N, p), y (N,); on NumericalError the
+        estimator is left exactly as it was before the call (its previous rows included)."""
+        snap = self._snapshot()
+        try:
+            return super().fit(W, y, *args, **kwargs)
+        except NumericalError:
+            self._restore(snap)
+            raise
 
     def _check_row(self, w, y) -> tuple[np.ndarray, float]:
         w = as_vector(w, "w", self.p)
@@ -198,9 +206,9 @@ class LinearFilter(ABC):
         scale = float(np.max(np.abs(W))) if np.size(W) else float("nan")
         return NumericalError(
             f"{type(self).__name__}: at row {row} {what} (innovation variance {d:.3g}): the covariance P lost "
-            f"positive definiteness or overflowed (largest |w| {scale:.3g}, prior P0 up to {self._p0_max:.3g}). "
-            "Scale the columns of W and y to order 1 (and P0 to match) and refit; the estimator is left as it "
-            "was before this call."
+            f"positive definiteness or overflowed (largest |w| {scale:.3g}, prior shape0 = P(0) up to "
+            f"{self._p0_max:.3g}). Scale the columns of W and y to order 1 (and shape0 to match) and refit; the "
+            "estimator is left as it was before this call."
         )
 
     @staticmethod
@@ -267,8 +275,9 @@ class LinearFilter(ABC):
         idx, c, ld, J, ne = self._chunks[0]
         return History(index=idx, centers=c, log_volumes=self._log_volumes(ld, J, ne))
 
-    def _estimate(self, method, cov, scale2, quantile, dof, extra) -> Estimate:
-        """Estimate with ellipsoid {(x - c)^T cov^-1 (x - c) <= scale2} and intervals c -+ quantile std.
+    def _estimate(self, method, cov, scale2, quantile, dof, sigma, noise_variance, extra) -> Estimate:
+        """Estimate with ellipsoid {(x - c)^T cov^-1 (x - c) <= scale2} and intervals c -+ quantile std;
+        ``sigma`` the residual standard deviation, ``noise_variance`` a row's noise variance.
 
         ``cov=None`` (noise variance not estimable yet): no ellipsoid, intervals (-inf, inf).
         """
@@ -283,60 +292,47 @@ class LinearFilter(ABC):
             ell, lo, hi = Ellipsoid(theta, scale2 * cov), theta - quantile * std, theta + quantile * std
         with np.errstate(divide="ignore", invalid="ignore"):
             rel = 100.0 * std / np.abs(theta)
-        info = {
-            "guaranteed": False,
-            "n_samples": self.n,
-            "dof": dof,
-            "std_err": std,
-            "rel_std_pct": rel,
-            "cov": cov,
-            # sqrt(cond P) = cond(W) of the rows seen so far when the prior is negligible
-            "condition_number": float(np.sqrt(ev[-1] / ev[0])),
-            "time_s": self.time_s,
-            **extra,
-        }
-        return Estimate(
-            method=method,
-            center=theta,
-            ellipsoid=ell,
-            intervals=(lo, hi),
-            kind="statistical",
-            level=self.level,
-            names=self.names,
-            history=self.history,
-            info=info,
-        )
+        statistics = Statistics(cov=cov, std_err=std, rel_std_pct=rel, dof=dof, sigma=sigma,
+                                # sqrt(cond P) = cond(W) of the rows seen so far when the prior is negligible
+                                condition_number=float(np.sqrt(ev[-1] / ev[0])), noise_variance=noise_variance)
+        return Estimate(method=method, center=theta, set=ell, intervals=(lo, hi), kind="statistical",
+                        level=self.level, names=self.names, history=self.history, n_samples=self.n,
+                        time_s=self.time_s, statistics=statistics, info=extra)
 
 
 class RLS(LinearFilter):
-    """Recursive least squares with forgetting factor.
+    """Recursive least squares with forgetting factor (the estimator protocol of
+    :mod:`boundid.estimators.protocol`).
 
     Parameters
     ----------
     p : int                    number of parameters
-    theta0 : (p,)              initial estimate; default 0 (direct-drive paper)
-    P0 : (p, p) or scalar      initial "covariance" P(0); a scalar means P0 * I; default 1000 I (paper)
+    prior : Ellipsoid or Box   the prior: centre theta(0), shape P(0); or, without it,
+    center0 : (p,) or scalar   theta(0); default 0 (direct-drive paper)
+    shape0 : (p, p), (p,) or scalar   P(0); a scalar s means s I; default 1000 I (paper)
     forgetting : float         lambda in (0, 1]; 1 = no forgetting (paper)
-    record_every : int         keep the centre every that many samples, and after each ``fit``, in
+    record_every : int         keep the centre every that many samples, and after each batch, in
                                ``history`` (0: none)
     names : p parameter names
     level : confidence level of the reported ellipsoid and intervals
 
-    ``update(w, y)`` processes one row in numpy (the readable reference); ``fit(W, y)`` runs the
-    compiled loop over a batch and continues from the current state. Both return the state as an
-    :class:`Estimate` (``fit``) or the a-priori error (``update``).
+    ``update(w, y)`` processes one row in numpy (the readable reference); ``fit(W, y)`` (from the
+    prior) and ``partial_fit(W, y)`` (continuing) run the compiled loop over a batch. Each returns
+    the state as an :class:`Estimate`.
     """
 
-    def __init__(self, p, theta0=None, P0=None, forgetting=1.0, record_every=1, names=None, level=0.95):
-        super().__init__(p, theta0, P0, record_every, names, level)
+    def __init__(self, p, *, prior=None, center0=None, shape0=None, forgetting=1.0, record_every=1, names=None,
+                 level=0.95):
         lam = float(forgetting)
         if not 0.0 < lam <= 1.0:
             raise InputError(f"forgetting must lie in (0, 1] (1 = no forgetting), got {forgetting}.")
         self.forgetting = lam
+        super().__init__(p, prior, center0, shape0, record_every, names, level)
 
-    def update(self, w, y) -> float:
-        """Process one row w (p,) with measurement y; returns the a-priori error y - w^T theta.
-        Raises NumericalError (state unchanged) if the step does not stay finite."""
+    def update(self, w, y) -> Estimate:
+        """Process one row w (p,) with measurement y, in numpy (the readable reference of the
+        compiled loop); returns :meth:`estimate`. Raises NumericalError (state unchanged) if the
+        step does not stay finite."""
         t0 = time.perf_counter()
         w, y = self._check_row(w, y)
         lam = self.forgetting
@@ -355,10 +351,11 @@ class RLS(LinearFilter):
         self.n += 1
         self._record_one()
         self.time_s += time.perf_counter() - t0
-        return float(e)
+        return self.estimate()
 
-    def fit(self, W, y) -> Estimate:
-        """Process every row of W (N, p) against y (N,) in a compiled loop; returns :meth:`estimate`."""
+    def partial_fit(self, W, y) -> Estimate:
+        """Process every row of W (N, p) against y (N,) in a compiled loop, continuing from the
+        current state; returns :meth:`estimate`."""
         t0 = time.perf_counter()
         W, y = self._check_batch(W, y)
         self._run(W, y, np.ones(1), 1.0 / self.forgetting, np.zeros((0, 0)))
@@ -383,15 +380,19 @@ class RLS(LinearFilter):
         return log_unit_ball_volume(self.p) + 0.5 * self.p * np.log(chi2 * s2) + 0.5 * logdet
 
     def estimate(self) -> Estimate:
-        """The current state as a statistical Estimate (no ellipsoid until n_eff > p and J > 0)."""
+        """The current state as a statistical Estimate (no ellipsoid until n_eff > p and J > 0); its
+        ``statistics.noise_variance`` is the residual variance sigma^2."""
         s2 = self.sigma2
         known = bool(np.isfinite(s2) and s2 > 0)
         method = "RLS" if self.forgetting == 1.0 else f"RLS (lambda={self.forgetting:g})"
+        sigma = float(np.sqrt(s2))
         return self._estimate(
             method,
             s2 * self.P if known else None,
             stats.chi2.ppf(self.level, self.p),
             stats.t.ppf(0.5 * (1.0 + self.level), self.dof) if known else np.nan,
             self.dof,
-            {"sigma": np.sqrt(s2), "forgetting": self.forgetting},
+            sigma,
+            sigma**2,
+            {"forgetting": self.forgetting},
         )

@@ -79,10 +79,10 @@ class ZonotopeRecursion(SetRecursion):
         At most ``order * p`` generators (>= 2: the reduction keeps order * p - p of them plus
         the p axis generators of the box of the others).
 
-    Other parameters: see :class:`~boundid.estimators._set_recursion.SetRecursion` (p, prior box
-    ``center0 +- half_widths0``, ``on_outlier``, ``record_every``, ``names``). Starts from the
+    Other parameters: see :class:`~boundid.estimators._set_recursion.SetRecursion` (p, the prior box
+    ``prior`` (or center0, shape0), ``on_outlier``, ``record_every``, ``names``). Starts from the
     prior box (p axis generators). Cost O(p m^2) per update, m <= order * p generators.
-    ``info["n_updates"]`` counts the steps that changed Z; a strip that cuts Z but whose
+    ``Estimate.n_updates`` counts the steps that changed Z; a strip that cuts Z but whose
     candidates are all longer than Z leaves it unchanged and counts as skipped.
     The history's ln volumes are NaN; ``Zonotope.log_volume`` is exact when C(m, p) is small.
     """

@@ -1,6 +1,6 @@
 """Figures of a study: matplotlib ``Figure`` objects built from plain arrays.
 
-Every function takes numpy arrays, dicts of arrays or :class:`~boundid.sets.Ellipsoid` objects and
+Every function takes numpy arrays, dicts of arrays or 2-D :class:`~boundid.sets.ConvexSet` objects and
 returns a :class:`matplotlib.figure.Figure`. Figures are created with ``Figure()`` directly (not
 ``pyplot``), so they render with the Agg canvas whatever the interactive backend is, and nothing
 accumulates in pyplot's figure registry. Colours are fixed per estimator (:func:`color_for`) so
@@ -17,10 +17,9 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Polygon, Rectangle
 from matplotlib.ticker import FormatStrFormatter, NullFormatter
-from scipy.spatial import ConvexHull, QhullError
 
 from boundid.errors import InputError
-from boundid.sets.ellipsoid import Ellipsoid
+from boundid.sets.convex import ConvexSet
 
 # Okabe-Ito colour-blind safe palette, plus a few darker tones; one fixed colour per estimator.
 PALETTE: dict[str, str] = {
@@ -204,8 +203,8 @@ def parameter_convergence(
 def torque_bounds(
     t,
     measured,
-    center_pred,
-    half_width,
+    lower,
+    upper,
     band_label: str = "OBE bounds",
     extra_bands: Mapping[str, tuple[object, object]] | None = None,
     *,
@@ -215,12 +214,13 @@ def torque_bounds(
 ) -> Figure:
     """Measured torque inside the predicted torque bounds, one subplot per joint.
 
-    The cross-validation figure of the H4 paper (eq. 37, Fig. 4): the bounds
-    y = w^T theta_hat +- sqrt(w^T M^-1 w) of the guaranteed ellipsoid, filled, with the measured
-    torque drawn on top; samples outside the band are marked and counted in the subplot title.
+    The cross-validation figure of the H4 paper (eq. 37, Fig. 4): the bounds [-h_S(-w), h_S(w)]
+    of a guaranteed set S (for an ellipsoid w^T theta_hat +- sqrt(w^T M^-1 w)), filled, with the
+    measured torque drawn on top; samples outside the band are marked and counted in the subplot
+    title.
 
-    t : (N,) [s];  measured, center_pred, half_width : (N,) or (N, n) [``unit``]
-    extra_bands : {label: (center (N, n), half_width (N, n))}, e.g. the WLS 95 % prediction band,
+    t : (N,) [s];  measured, lower, upper : (N,) or (N, n) [``unit``]
+    extra_bands : {label: (lower (N, n), upper (N, n))}, e.g. the WLS 95 % prediction band,
         drawn as outlines so both bands stay readable.
     max_points : for long records only every k-th sample is drawn so the figure stays small
         (outside-band samples are found on the full record and all marked).
@@ -228,16 +228,15 @@ def torque_bounds(
     t = np.asarray(t, dtype=float)
     N = t.shape[0]
     meas = _as_columns(measured, "measured", N)
-    cen = _as_columns(center_pred, "center_pred", N)
-    hw = _as_columns(half_width, "half_width", N)
-    if cen.shape != meas.shape or hw.shape != meas.shape:
-        raise InputError(f"measured, center_pred and half_width must have one shape, got {meas.shape}, "
-                         f"{cen.shape}, {hw.shape}.")
-    if np.any(hw < 0):
-        raise InputError("half_width must be >= 0 (it is sqrt(w^T M^-1 w)).")
+    lo = _as_columns(lower, "lower", N)
+    hi = _as_columns(upper, "upper", N)
+    if lo.shape != meas.shape or hi.shape != meas.shape:
+        raise InputError(f"measured, lower and upper must have one shape, got {meas.shape}, {lo.shape}, {hi.shape}.")
+    if np.any(hi < lo):
+        raise InputError("the band needs lower <= upper on every sample.")
     extra = {}
-    for label, (c, h) in (extra_bands or {}).items():
-        extra[label] = (_as_columns(c, f"{label} center", N), _as_columns(h, f"{label} half-width", N))
+    for label, (a, b) in (extra_bands or {}).items():
+        extra[label] = (_as_columns(a, f"{label} lower", N), _as_columns(b, f"{label} upper", N))
         if extra[label][0].shape != meas.shape or extra[label][1].shape != meas.shape:
             raise InputError(f"band {label!r} must have shape {meas.shape}.")
     n = meas.shape[1]
@@ -247,13 +246,13 @@ def torque_bounds(
     s = _stride(N, max_points)
     band_color = color_for(band_label)
     for i, ax in enumerate(axes):
-        ax.fill_between(t[s], (cen - hw)[s, i], (cen + hw)[s, i], color=band_color, alpha=0.3, lw=0, label=band_label)
-        for label, (c, h) in extra.items():
+        ax.fill_between(t[s], lo[s, i], hi[s, i], color=band_color, alpha=0.3, lw=0, label=band_label)
+        for label, (a, b) in extra.items():
             col = color_for(label)
-            ax.plot(t[s], (c - h)[s, i], color=col, lw=0.9, ls="--", label=label)
-            ax.plot(t[s], (c + h)[s, i], color=col, lw=0.9, ls="--")
+            ax.plot(t[s], a[s, i], color=col, lw=0.9, ls="--", label=label)
+            ax.plot(t[s], b[s, i], color=col, lw=0.9, ls="--")
         ax.plot(t[s], meas[s, i], color=PALETTE["measured"], lw=0.7, label="measured")
-        out = np.abs(meas[:, i] - cen[:, i]) > hw[:, i]
+        out = (meas[:, i] < lo[:, i]) | (meas[:, i] > hi[:, i])
         if out.any():
             ax.plot(t[out], meas[out, i], "x", color="#D00000", ms=4, label="outside bounds")
         ax.set_title(f"{names[i]}: {int(out.sum())} of {N} samples outside {band_label}", fontsize=9)
@@ -314,35 +313,33 @@ def trajectory_comparison(
 
 
 def projection_2d(
-    polytope_vertices_2d,
-    ellipsoids: Mapping[str, Ellipsoid],
+    polytope,
+    sets: Mapping[str, ConvexSet],
     truth_2d=None,
     box=None,
     names: Sequence[str] = ("theta_i", "theta_j"),
     *,
+    centers: Mapping[str, object] | None = None,
     units: Sequence[str] | None = None,
 ) -> Figure:
-    """A parameter pair: the polytope's projection with the ellipsoid estimates' projections.
+    """A parameter pair: the exact polytope's shadow with the shadows of the set estimates.
 
-    polytope_vertices_2d : (k, 2) or None
-        Points whose convex hull is the projected polytope (e.g. its vertices projected on the
-        pair, or support points of the 2-D shadow); drawn filled in grey.
-    ellipsoids : {label: Ellipsoid of dimension 2} (``Ellipsoid.project(i, j)`` of each estimate)
+    polytope : a 2-D ConvexSet or None
+        The exact shadow of the feasible polytope on the pair (``Polytope.project(i, j)``), drawn
+        filled in grey.
+    sets : {label: 2-D ConvexSet} (``set.project(i, j)`` of each estimate, any family), drawn by
+        their ``boundary()``.
+    centers : {label: (2,)} or None, the estimates' centres on the pair, marked with a dot.
     truth_2d : (2,) or None, marked with a star.
     box : (lo (2,), hi (2,)) or None, e.g. the exact LP bounds of the pair, drawn dashed.
     """
     fig = Figure(figsize=(6.0, 4.0), dpi=DPI, layout="constrained")
     ax = fig.subplots()
-    if polytope_vertices_2d is not None:
-        pts = np.asarray(polytope_vertices_2d, dtype=float)
-        if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 3:
-            raise InputError(f"polytope_vertices_2d must be (k >= 3, 2), got shape {pts.shape}.")
-        try:
-            hull = ConvexHull(pts)
-        except QhullError as exc:
-            raise InputError("the projected polytope points are collinear (a flat projection); "
-                             "pass None to leave the polytope out or check the parameter pair.") from exc
-        ax.add_patch(Polygon(pts[hull.vertices], closed=True, facecolor="#BBBBBB", edgecolor="#333333",
+    for label, S in {"polytope": polytope, **sets}.items():
+        if S is not None and S.dim != 2:
+            raise InputError(f"{label}: projection_2d draws 2-D sets; project() this {S.dim}-D set on the pair first.")
+    if polytope is not None:
+        ax.add_patch(Polygon(polytope.boundary()[:-1], closed=True, facecolor="#BBBBBB", edgecolor="#333333",
                              alpha=0.6, lw=1.0, label="polytope (exact set)"))
     if box is not None:
         lo, hi = (np.asarray(b, dtype=float) for b in box)
@@ -350,11 +347,12 @@ def projection_2d(
             raise InputError("box must be (lo (2,), hi (2,)) with lo <= hi.")
         ax.add_patch(Rectangle(tuple(lo), *(hi - lo), fill=False, ls="--", lw=1.0,
                                edgecolor=PALETTE["LP exact"], label="LP exact bounds"))
-    for label, ell in ellipsoids.items():
-        b = ell.boundary(240)
+    for label, S in sets.items():
+        b = S.boundary(240)
         col = color_for(label)
         ax.plot(b[:, 0], b[:, 1], color=col, lw=1.4, label=label)
-        ax.plot(*ell.center, "o", color=col, ms=3)
+        if centers is not None and label in centers:
+            ax.plot(*np.asarray(centers[label], dtype=float), "o", color=col, ms=3)
     if truth_2d is not None:
         tr = np.asarray(truth_2d, dtype=float)
         if tr.shape != (2,):

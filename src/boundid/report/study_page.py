@@ -21,7 +21,6 @@ from boundid.report.output import replace_folder
 from boundid.report.tables import deviation_percent, estimate_summary, parameter_table, widths
 from boundid.sets import log_unit_ball_volume
 from boundid.studies.certify_files import certificate_row
-from boundid.studies.projection import shadow_points
 from boundid.studies.runner import Failure, StudyResult
 
 
@@ -60,8 +59,15 @@ def _setup(r: StudyResult) -> dict:
 
 
 def _det_shape(est) -> float:
-    """det(M^-1) of E = {(theta - c)^T M (theta - c) <= 1}: the H4 paper's uncertainty volume."""
-    return float(np.exp(2.0 * (est.ellipsoid.log_volume() - log_unit_ball_volume(est.p))))
+    """det(M^-1) of E = {(theta - c)^T M (theta - c) <= 1}, the H4 paper's uncertainty volume, from
+    ln vol E = ln vol(unit ball) + ln det(M^-1) / 2; for a set of another family, that of the
+    ellipsoid of the same volume (NaN where the family cannot give its volume)."""
+    return float(np.exp(2.0 * (est.set.log_volume() - log_unit_ball_volume(est.p))))
+
+
+def _tag(label: str, est) -> str:
+    """The label of a set on the page: an unverified set says so."""
+    return label if est.kind != "unverified" else f"{label} (unverified)"
 
 
 def _paper_section_h4(page: Page, r: StudyResult) -> None:
@@ -70,13 +76,13 @@ def _paper_section_h4(page: Page, r: StudyResult) -> None:
     cols: dict = {"truth (paper Table I centre)": m.theta_true, "a-priori (Table I)": m.theta_prior}
     for lab, e in ests.items():
         cols[f"{lab} centre"] = e.center
-        if "std_err" in e.info:
-            cols[f"{lab} sigma"] = np.asarray(e.info["std_err"])
+        if e.statistics is not None:
+            cols[f"{lab} sigma"] = e.statistics.std_err
     if r.exact is not None and r.exact.bounds is not None:
         cols["LP exact"] = (r.exact.bounds.lo, r.exact.bounds.hi)
     for lab, e in ests.items():
-        if e.guaranteed:
-            cols[f"{lab} interval"] = e.intervals
+        if e.set_membership:
+            cols[f"{_tag(lab, e)} interval"] = e.intervals
     page.section("Table I, reproduced",
                  "The simulation's true values are the centre of the paper's Table I; the a-priori values are "
                  "its right column. Every other column is computed by this run.")
@@ -85,13 +91,14 @@ def _paper_section_h4(page: Page, r: StudyResult) -> None:
     rows = {}
     paper = r.config.paper
     for lab, e in ests.items():
-        if not e.guaranteed:
+        if not e.set_membership:
             continue
-        n = e.info.get("n_samples", 0)
-        rows[lab] = {"det(M^-1) ours": _det_shape(e), "det(M^-1) paper": paper.get("uncertainty_volume", np.nan),
-                     "outliers ours [%]": 100.0 * e.outliers.size / max(n, 1),
-                     "outliers paper [%]": f"< {paper.get('outlier_rate_percent_below', 'n/a')}",
-                     "updates": e.info.get("n_updates", np.nan), "samples": n}
+        n = e.n_samples
+        rows[_tag(lab, e)] = {"det(M^-1) ours": _det_shape(e),
+                              "det(M^-1) paper": paper.get("uncertainty_volume", np.nan),
+                              "outliers ours [%]": 100.0 * e.outliers.size / max(n, 1),
+                              "outliers paper [%]": f"< {paper.get('outlier_rate_percent_below', 'n/a')}",
+                              "updates": e.n_updates, "samples": n}
     if rows:
         page.table(pd.DataFrame.from_dict(rows, orient="index").rename_axis("estimate"),
                    "Uncertainty volume det(M^-1) and outlier rate after all data, beside the paper's.",
@@ -152,9 +159,9 @@ def _validation_section(page: Page, r: StudyResult) -> None:
         page.table(pd.DataFrame.from_dict(rows, orient="index").rename_axis("estimate"),
                    "Measured validation torques outside each band.", float_format="{:.3g}", name="crossval")
         main = next((lab for lab, b in bands.items() if b.kind == "guaranteed"), next(iter(bands)))
-        extra = {f"{lab} 95 %": (b.center, b.half_width) for lab, b in bands.items()
+        extra = {f"{lab} 95 %": (b.lower, b.upper) for lab, b in bands.items()
                  if lab != main and b.kind == "statistical"}
-        page.figure(F.torque_bounds(t, measured, bands[main].center, bands[main].half_width,
+        page.figure(F.torque_bounds(t, measured, bands[main].lower, bands[main].upper,
                                     band_label=f"{main} bounds", extra_bands=extra),
                     f"Measured torque on the validation trajectory inside the {main} bounds (eq. 37).",
                     name="torque_bounds")
@@ -176,24 +183,25 @@ def _exact_section(page: Page, r: StudyResult, guard: _Guard) -> None:
                      "this data set: the truth may legitimately lie outside the sets."))
     for what, msg in ex.errors.items():
         page.text(f"{what}: {msg}.")
-    sets = {lab: e for (lab, rn), e in r.estimates.items() if rn == ex.regression and e.ellipsoid is not None}
-    compared = {**{lab: e.intervals for lab, e in sets.items() if e.guaranteed},
+    sets = {_tag(lab, e): e for (lab, rn), e in r.estimates.items() if rn == ex.regression and e.set is not None}
+    compared = {**{lab: e.intervals for lab, e in sets.items() if e.set_membership},
                 **{f"SDP {k}": v.ellipsoid.intervals() for k, v in ex.sdp.items()}}
     if ex.bounds is not None and compared:
         with guard("figure", "width ratios"):
             w = widths(names, {"LP exact": (ex.bounds.lo, ex.bounds.hi), **compared})
             page.figure(F.width_ratios(w), "Per-parameter interval width over the exact LP width (1 = exact).",
                         name="width_ratios")
-    logv = {lab: e.ellipsoid.log_volume() / m.p for lab, e in sets.items() if e.guaranteed}
+    logv = {lab: e.set.log_volume() / m.p for lab, e in sets.items() if e.set_membership}
     logv.update({f"SDP {k}": v.ellipsoid.log_volume() / m.p for k, v in ex.sdp.items()})
     if logv:
         with guard("figure", "log volumes"):
-            page.figure(F.log_volume_bars(logv), "ln volume per dimension of the guaranteed and SDP ellipsoids "
-                        "(the inner ellipsoid is a lower bound on any outer one).", name="log_volumes")
+            page.figure(F.log_volume_bars(logv), "ln volume per dimension of the guaranteed sets and the SDP "
+                        "ellipsoids (the inner ellipsoid is a lower bound on any outer set).", name="log_volumes")
     rows = {lab: certificate_row(cert) for lab, cert in ex.certificates.items()}
     if rows:
         page.table(pd.DataFrame.from_dict(rows, orient="index").rename_axis("estimate"),
-                   "Certification of each guaranteed set against the exact optima.", float_format="{:.4g}",
+                   "Certification of each set-membership estimate against the exact optima (an unverified "
+                   "set is certified too, and labelled so).", float_format="{:.4g}",
                    name="certificates")
     ref = (ex.bounds.lo, ex.bounds.hi) if ex.bounds is not None else None
     page.table(estimate_summary({f"{lab} / {rn}": e for (lab, rn), e in r.estimates.items()}, m.theta_true,
@@ -206,19 +214,22 @@ def _exact_section(page: Page, r: StudyResult, guard: _Guard) -> None:
     for a, b in r.config.exact.projections:
         with guard("projection", f"({a}, {b})"):
             idx = [names.index(a), names.index(b)]
-            pts = shadow_points(ex.polytope, idx) if ex.bounds is not None else None
-            ells = {lab: e.ellipsoid.project(*idx) for lab, e in sets.items()}
-            ells.update({f"SDP {k}": v.ellipsoid.project(*idx) for k, v in ex.sdp.items()})
+            shadow = ex.polytope.project(*idx) if ex.bounds is not None else None
+            shadows = {lab: e.set.project(*idx) for lab, e in sets.items()}
+            shadows.update({f"SDP {k}": v.ellipsoid.project(*idx) for k, v in ex.sdp.items()})
+            centers = {lab: e.center[idx] for lab, e in sets.items()}
+            centers.update({f"SDP {k}": v.ellipsoid.center[idx] for k, v in ex.sdp.items()})
             box = ((ex.bounds.lo[idx], ex.bounds.hi[idx]) if ex.bounds is not None else None)
-            page.figure(F.projection_2d(pts, ells, m.theta_true[idx], box, (a, b),
+            page.figure(F.projection_2d(shadow, shadows, m.theta_true[idx], box, (a, b), centers=centers,
                                         units=[m.param_units[i] for i in idx]),
-                        f"Projection on ({a}, {b}): exact polytope shadow (grey), LP box (dashed), ellipsoids, "
-                        "truth (star).",
+                        f"Projection on ({a}, {b}): exact polytope shadow (grey), LP box (dashed), the sets' "
+                        "shadows, truth (star).",
                         name=f"projection_{a}_{b}")
 
 
 def _convergence_sets(page: Page, r: StudyResult) -> None:
-    obe = {lab: e.history for (lab, rn), e in r.estimates.items() if e.guaranteed and e.history is not None}
+    obe = {_tag(lab, e): e.history for (lab, rn), e in r.estimates.items()
+           if e.set_membership and e.history is not None}
     if obe:
         page.section("Recursive set estimates over the samples")
         page.figure(F.volume_history({lab: (h.index, h.log_volumes) for lab, h in obe.items()}),

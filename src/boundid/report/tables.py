@@ -111,15 +111,14 @@ def estimate_summary(estimates: Mapping[str, object], truth=None, reference: tup
     """One row per estimate: kind, level, ln vol, ln vol / p, mean width, truth containment, outliers, time.
 
     estimates : {label: Estimate}
-    truth : (p,) or None -> columns "truth in set" (ellipsoid) and "truth in intervals"
+    truth : (p,) or None -> columns "truth in set" (the estimate's set, any family) and "truth in intervals"
     reference : (lo, hi) exact LP bounds or None -> column "mean width / exact"
         (mean over parameters of width / exact width).
     """
     rows = {}
     for label, e in estimates.items():
         lo, hi = (np.asarray(b, dtype=float) for b in e.intervals)
-        ell = e.ellipsoid
-        logv = ell.log_volume() if ell is not None else np.nan
+        logv = e.set.log_volume() if e.set is not None else np.nan
         row = {
             "kind": e.kind,
             "level": e.level if e.level is not None else np.nan,
@@ -132,10 +131,10 @@ def estimate_summary(estimates: Mapping[str, object], truth=None, reference: tup
             row["mean width / exact"] = float(np.mean((hi - lo) / (rhi - rlo)))
         if truth is not None:
             th = np.asarray(truth, dtype=float)
-            row["truth in set"] = "yes" if e.contains(th) else ("no" if ell is not None else "–")
+            row["truth in set"] = "yes" if e.contains(th) else ("no" if e.set is not None else "–")
             row["truth in intervals"] = "yes" if bool(np.all((lo <= th) & (th <= hi))) else "no"
         row["outliers"] = int(np.asarray(e.outliers).size)
-        row["time [s]"] = float(e.info.get("time_s", np.nan))
+        row["time [s]"] = float(e.time_s)
         rows[label] = row
     return pd.DataFrame.from_dict(rows, orient="index").rename_axis("estimate")
 

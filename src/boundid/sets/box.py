@@ -16,24 +16,32 @@ class Box:
     ----------
     lo, hi : (p,) arrays
         Lower and upper bounds (parameter units), finite, lo <= hi (lo = hi allowed: a flat box).
+
+    ``center`` and ``half_widths`` are (lo + hi) / 2 and (hi - lo) / 2, or, for a box made by
+    :meth:`from_center`, the values given there, exactly (lo and hi are then their rounded sum
+    and difference).
     """
 
-    __slots__ = ("lo", "hi")
+    __slots__ = ("lo", "hi", "_center", "_half")
 
     def __init__(self, lo, hi):
         self.lo = as_vector(lo, "lo").copy()
         self.hi = as_vector(hi, "hi", self.lo.shape[0]).copy()
         if np.any(self.lo > self.hi):
             raise InputError(f"a box needs lo <= hi; violated at indices {np.flatnonzero(self.lo > self.hi)}.")
+        self._center = 0.5 * (self.lo + self.hi)
+        self._half = 0.5 * (self.hi - self.lo)
 
     @classmethod
     def from_center(cls, center, half_widths) -> Box:
         """The box center +- half_widths (a scalar half-width is used on every axis)."""
         c = as_vector(center, "center")
-        h = np.broadcast_to(as_float_array(half_widths, "half_widths"), c.shape)
+        h = np.broadcast_to(as_float_array(half_widths, "half_widths"), c.shape).astype(float)
         if np.any(h < 0) or not np.all(np.isfinite(h)):
             raise InputError("half_widths must be finite and >= 0.")
-        return cls(c - h, c + h)
+        box = cls(c - h, c + h)
+        box._center, box._half = c.copy(), h.copy()
+        return box
 
     @property
     def dim(self) -> int:
@@ -41,11 +49,13 @@ class Box:
 
     @property
     def center(self) -> np.ndarray:
-        return 0.5 * (self.lo + self.hi)
+        """(p,) centre (a copy)."""
+        return self._center.copy()
 
     @property
     def half_widths(self) -> np.ndarray:
-        return 0.5 * (self.hi - self.lo)
+        """(p,) half-widths (a copy)."""
+        return self._half.copy()
 
     def intervals(self) -> tuple[np.ndarray, np.ndarray]:
         return self.lo.copy(), self.hi.copy()

@@ -27,11 +27,12 @@ class ConvexSet(Protocol):
     def support(self, direction) -> float:
         """h(d) = max over x in the set of d^T x, for d (p,)."""
 
-    def contains(self, points):
+    def contains(self, points, rtol: float = 1e-9):
         """Whether a point (p,) lies in the set (bool), or each of (m, p) points ((m,) bool).
 
-        The test allows only for rounding (a relative tolerance of the order of 1e-9 of the set's
-        own scale); a point the set excludes by more is outside."""
+        The test allows only for rounding: ``rtol`` relative to the set's own scale (its
+        Mahalanobis^2, normalised coordinates, half-widths or bounds), plus the rounding of the
+        coordinates themselves; a point the set excludes by more is outside."""
 
     def gauge(self, points):
         """A scale-free measure of where each point lies, <= 1 inside and > 1 outside: the

@@ -242,20 +242,21 @@ class Polytope:
             out = np.maximum(out, R.max(axis=0))
         return out
 
-    def contains(self, points, atol: float = 1e-9) -> np.ndarray | bool:
-        """Whether each point (row of ``points``) satisfies every constraint up to ``atol``
-        (relative to each bound: |y_k - w_k^T x| <= e_k (1 + atol))."""
+    def contains(self, points, rtol: float = 1e-9) -> np.ndarray | bool:
+        """Whether each point (row of ``points``) satisfies every constraint up to ``rtol``
+        (relative to each bound: |y_k - w_k^T x| <= e_k (1 + rtol); box sides and halfspaces
+        within rtol (1 + |bound|))."""
         X = np.atleast_2d(as_float_array(points, "points"))
         if X.shape[-1] != self.dim:
             raise InputError(f"points must have {self.dim} columns, got shape {X.shape}.")
-        ok = self.residual_ratio(X) <= 1.0 + atol
+        ok = self.residual_ratio(X) <= 1.0 + rtol
         if self.box is not None:
-            ok &= np.all((X >= self.box[0] - atol * (1 + np.abs(self.box[0])))
-                         & (X <= self.box[1] + atol * (1 + np.abs(self.box[1]))), axis=1)
+            ok &= np.all((X >= self.box[0] - rtol * (1 + np.abs(self.box[0])))
+                         & (X <= self.box[1] + rtol * (1 + np.abs(self.box[1]))), axis=1)
         if self.halfspaces is not None:
             H, h = self.halfspaces
             nrm = np.linalg.norm(H, axis=1)
-            ok &= np.all(X @ (H / nrm[:, None]).T <= h / nrm + atol * (1 + np.abs(h / nrm)), axis=1)
+            ok &= np.all(X @ (H / nrm[:, None]).T <= h / nrm + rtol * (1 + np.abs(h / nrm)), axis=1)
         return bool(ok[0]) if np.ndim(points) == 1 else ok
 
     def gauge(self, points) -> np.ndarray | float:

@@ -102,7 +102,7 @@ def replicate_rows(cfg: StudyConfig, scenario: Scenario, replicate: int) -> pd.D
             ratio = np.nan
             if est.guaranteed and "e_max" in ec.options:
                 ratio = float(np.max(np.abs(reg.y - reg.W @ model.theta_true)) / ec.options["e_max"])
-            extra[(ec.label, regname)] = (float(est.info["time_s"]), ratio, None)
+            extra[(ec.label, regname)] = (float(est.time_s), ratio, None)
     exact = None
     if ccfg.exact.regression is not None:
         t0 = time.perf_counter()

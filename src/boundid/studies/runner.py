@@ -18,7 +18,7 @@ from boundid.experiments.h4_pipeline import identification_regression
 from boundid.experiments.recording import Recording
 from boundid.experiments.regression import Regression
 from boundid.models import RobotModel
-from boundid.sets import Polytope, SDPResult, inner_ellipsoid, john_outer, outer_ellipsoid
+from boundid.sets import Box, Polytope, SDPResult, inner_ellipsoid, john_outer, outer_ellipsoid
 from boundid.studies.config import EstimatorConfig, PreprocessingConfig, PriorConfig, StudyConfig
 from boundid.studies.data import StudyData, acquire
 from boundid.studies.progress import QUIET, Progress
@@ -86,20 +86,20 @@ def run_estimator(ec: EstimatorConfig, reg: Regression, model: RobotModel, prior
             raise StudyError(f"estimator {ec.label!r}: option e_max (the bound on |y - w^T theta|, in {reg.unit}) "
                              "is required.")
         center, half = prior_box(model, prior)
-        est = OBE.from_prior(center, half, criterion=o.get("criterion", "volume"), form=o.get("form", "factorized"),
-                             record_every=record_every, names=names).fit(W, y, o["e_max"])
+        est = OBE(p, prior=Box.from_center(center, half), criterion=o.get("criterion", "volume"),
+                  form=o.get("form", "factorized"), record_every=record_every, names=names).fit(W, y, o["e_max"])
     elif ec.method == "rls":
-        est = RLS(p, np.full(p, o.get("theta0", 0.0)), o.get("P0", 1000.0), o.get("forgetting", 1.0),
+        est = RLS(p, center0=o.get("theta0", 0.0), shape0=o.get("P0", 1000.0), forgetting=o.get("forgetting", 1.0),
                   record_every=record_every, names=names).fit(W, y)
     elif ec.method == "kalman":
-        est = KalmanEstimator(p, np.full(p, o.get("theta0", 0.0)), o.get("P0", 1000.0), o.get("R", 1.0),
-                              o.get("Q", 0.0), record_every=record_every, names=names).fit(W, y)
+        est = KalmanEstimator(p, center0=o.get("theta0", 0.0), shape0=o.get("P0", 1000.0), R=o.get("R", 1.0),
+                              Q=o.get("Q", 0.0), record_every=record_every, names=names).fit(W, y)
     elif ec.method == "ols":
         est = ols(W, y, level=o.get("level", 0.95), names=names)
     else:
         est = wls(W, y, reg.joint, level=o.get("level", 0.95), names=names)
-    est.info.setdefault("time_s", time.perf_counter() - t0)
-    est.info.update(label=ec.label, regression=reg.model)
+    if not np.isfinite(est.time_s):
+        est.time_s = time.perf_counter() - t0
     return est
 
 
@@ -114,7 +114,8 @@ class ExactResult:
     really holds, so every guaranteed set must contain the truth); truth_violations: rows where it does not;
     bounds: exact LP parameter bounds (None if the data are inconsistent with the bounds);
     sdp: SDP ellipsoids by name ("outer", "inner", "john"); errors: what failed, by name
-    (reported, never replaced by a wrong answer); certificates: per guaranteed estimate label.
+    (reported, never replaced by a wrong answer); certificates: per set-membership estimate label
+    (guaranteed or unverified: an unverified set is certified too).
     """
 
     regression: str
@@ -139,7 +140,7 @@ def _reason(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
-def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, guaranteed: dict[str, Estimate],
+def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, set_estimates: dict[str, Estimate],
                  progress: Progress) -> ExactResult:
     """The exact optima of ``reg``'s polytope; a step that fails (LP, SDP, certificate) is recorded in
     ``errors`` by name and the others go on."""
@@ -179,7 +180,7 @@ def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, guarantee
                 res.errors[name] = _reason(exc)
             res.time_s[f"sdp_{name}"] = time.perf_counter() - t0
     have_volumes = "outer" in res.sdp and "inner" in res.sdp
-    for label, est in guaranteed.items():
+    for label, est in set_estimates.items():
         try:
             res.certificates[label] = validate(est, P, outer=res.sdp.get("outer"), inner=res.sdp.get("inner"),
                                                volumes=have_volumes)
@@ -225,8 +226,8 @@ def tidy_table(cfg: StudyConfig, model: RobotModel, estimates: dict[tuple[str, s
     containments of the whole true vector theta_true (the same on every row of an estimate; NA for
     measured data, whose truth is unknown):
 
-    truth_in_set : theta_true lies in the estimate's set -- its ellipsoid (guaranteed or confidence
-        set), or the exact polytope for "LP exact"; NA for a point estimate (no set)
+    truth_in_set : theta_true lies in the estimate's set -- its guaranteed or confidence set, of
+        any family, or the exact polytope for "LP exact"; NA for a point estimate (no set)
     truth_in_all_intervals : lo_j <= theta_true_j <= hi_j for every parameter j, i.e. theta_true lies
         in the set's bounding box. Implied by truth_in_set, not the converse: a truth in a corner of
         the box, outside the ellipsoid, has True here and False there.
@@ -235,7 +236,7 @@ def tidy_table(cfg: StudyConfig, model: RobotModel, estimates: dict[tuple[str, s
     known = cfg.experiment.source == "simulate"
     sets = []  # (label, method, regression, kind, centre, (lo, hi), truth in set, level)
     for (label, regname), est in estimates.items():
-        in_set = est.contains(truth) if est.ellipsoid is not None else pd.NA
+        in_set = est.contains(truth) if est.set is not None else pd.NA
         sets.append((label, est.method, regname, est.kind, est.center, est.intervals, in_set, est.level))
     if exact is not None and exact.bounds is not None:
         b = exact.bounds
@@ -288,9 +289,9 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
     exact = None
     if cfg.exact.regression is not None:
         t0 = time.perf_counter()
-        guaranteed = {lab: e for (lab, rn), e in estimates.items() if rn == cfg.exact.regression and e.guaranteed}
+        sets = {lab: e for (lab, rn), e in estimates.items() if rn == cfg.exact.regression and e.set_membership}
         try:
-            exact = exact_optima(cfg, regressions[cfg.exact.regression], model, guaranteed, progress)
+            exact = exact_optima(cfg, regressions[cfg.exact.regression], model, sets, progress)
         except RUN_FAILURES as exc:
             failures.append(Failure("exact optima", cfg.exact.regression, _reason(exc)))
         else:

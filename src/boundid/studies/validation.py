@@ -3,8 +3,9 @@
 - open loop ([DirectDrivePaper]): re-simulate the robot with each identified theta under the same torques
   and compare the joint positions with the measured ones;
 - cross-validation trajectory ([H4Paper] eq. 37): predict the torque of a different experiment,
-  with the guaranteed bounds y = w^T theta_hat +- sqrt(w^T S w) (S the OBE shape matrix) and the
-  statistical 95 % prediction band w^T theta_hat +- 1.96 sqrt(w^T Cov w + sigma^2).
+  with the bounds of a set-membership estimate S, [-h_S(-w), h_S(w)] (h_S the support function:
+  for an ellipsoid w^T theta_hat +- sqrt(w^T S w), eq. 37; the same formula for a set of any
+  family), and the statistical 95 % prediction band w^T theta_hat +- 1.96 sqrt(w^T Cov w + sigma^2).
 """
 
 from __future__ import annotations
@@ -33,15 +34,22 @@ class Resimulation:
 
 @dataclass
 class TorqueBand:
-    """Predicted torque on the validation trajectory: centre and half-width, (N, n) N m each."""
+    """Predicted torque on the validation trajectory, (N, n) N m each: the prediction
+    w^T theta_hat and the band [lower, upper] around it; ``kind`` the estimate's."""
 
     label: str
     center: np.ndarray
-    half_width: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
     kind: str
 
+    @property
+    def half_width(self) -> np.ndarray:
+        """Half the band's width (N, n) N m."""
+        return 0.5 * (self.upper - self.lower)
+
     def outside_fraction(self, measured: np.ndarray) -> float:
-        return float(np.mean(np.abs(measured - self.center) > self.half_width))
+        return float(np.mean((measured < self.lower) | (measured > self.upper)))
 
 
 def _mass_matrix_pd(model: RobotModel, q: np.ndarray, theta: np.ndarray) -> bool:
@@ -63,32 +71,24 @@ def resimulate(cfg: StudyConfig, model: RobotModel, data: StudyData, label: str,
     return Resimulation(label, traj.q, rms)
 
 
-def _noise_variance(est: Estimate, joint: np.ndarray) -> np.ndarray | float:
-    """Per-row measurement noise variance of a statistical estimate: WLS's per-joint sigma_j,
-    OLS/RLS's residual sigma, or the Kalman filter's R."""
-    sig = est.info.get("sigma_groups")
-    if isinstance(sig, dict):
-        return np.asarray([sig[j] for j in joint]) ** 2
-    if "sigma" in est.info:
-        return float(est.info["sigma"]) ** 2
-    return float(est.info.get("R", 0.0))
-
-
-def torque_bands(model: RobotModel, W: np.ndarray, n_joints: int, estimates: dict[str, Estimate],
+def torque_bands(W: np.ndarray, n_joints: int, estimates: dict[str, Estimate],
                  joint: np.ndarray) -> dict[str, TorqueBand]:
-    """Eq. (37) bounds for guaranteed sets, 95 % prediction bands for statistical ones."""
+    """[H4Paper] eq. 37 bounds [-h_S(-w), h_S(w)] of each row w of W for set-membership estimates
+    (guaranteed or unverified, any family), 95 % prediction bands w^T c +- 1.96 sqrt(w^T Cov w +
+    noise variance) for statistical ones; point estimates get none."""
     bands = {}
     for label, est in estimates.items():
         center = W @ est.center
-        if est.guaranteed:
-            L = np.linalg.cholesky(est.ellipsoid.shape)
-            half = np.linalg.norm(W @ L, axis=1)  # sqrt(w^T S w), eq. (37)
-        elif "cov" in est.info:
-            var = np.einsum("ij,jk,ik->i", W, np.asarray(est.info["cov"]), W)
-            half = 1.96 * np.sqrt(var + _noise_variance(est, joint))
+        if est.set_membership:
+            upper = np.array([est.set.support(w) for w in W])
+            lower = np.array([-est.set.support(-w) for w in W])
+        elif est.statistics is not None:
+            var = np.einsum("ij,jk,ik->i", W, est.statistics.cov, W)
+            half = 1.96 * np.sqrt(var + est.statistics.row_noise_variance(joint))
+            lower, upper = center - half, center + half
         else:
             continue
-        bands[label] = TorqueBand(label, center.reshape(-1, n_joints), half.reshape(-1, n_joints), est.kind)
+        bands[label] = TorqueBand(label, *(a.reshape(-1, n_joints) for a in (center, lower, upper)), est.kind)
     return bands
 
 
@@ -104,5 +104,5 @@ def validate_study(cfg: StudyConfig, model: RobotModel, data: StudyData,
         reg = inverse_dynamic_rows(model, data.validation, cfg.preprocessing)
         ests = {lab: e for (lab, rn), e in estimates.items() if rn == "inverse_dynamic"}
         out["validation_regression"] = reg
-        out["torque_bands"] = torque_bands(model, reg.W, model.n_joints, ests, reg.joint)
+        out["torque_bands"] = torque_bands(reg.W, model.n_joints, ests, reg.joint)
     return out
