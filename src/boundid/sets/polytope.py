@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import scipy.linalg
@@ -44,7 +45,8 @@ from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError, cKDTree
 
 from boundid._validation import as_bounds, as_float_array, as_matrix, as_regression, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
-from boundid.sets._working_set import CHUNK, Block, LPStatusError, WorkingSetLP, sample_levels, strided_sample
+from boundid.sets._working_set import (CHUNK, Block, LPStatusError, StripBlock, WorkingSetLP, box_reach,
+                                       col_rms, frame_rows, level_ratios, max_ratio, sample_levels, strided_sample)
 
 #: largest dimension for which vertices() and volume() enumerate vertices exactly
 MAX_VERTEX_DIM = 6
@@ -166,15 +168,31 @@ def _chunks(n: int):
         yield slice(start, min(n, start + CHUNK))
 
 
-@dataclass(frozen=True)
 class _Frame:
     """Well-scaled coordinates theta = origin + scale * z and the strips seen from them:
-    r = y - W origin (N,), n = |w_k * scale| (N,; 1 for an all-zero row)."""
+    r = y - W origin, n = |w_k * scale| (1 for an all-zero row), computed for the rows asked
+    (``rn``, :func:`frame_rows`) or, on the paths that need every row, once in full (``r``, ``n``).
+    A change of frame costs nothing until a row is used."""
 
-    origin: np.ndarray
-    scale: np.ndarray
-    r: np.ndarray
-    n: np.ndarray
+    def __init__(self, origin: np.ndarray, scale: np.ndarray, W: np.ndarray, y: np.ndarray):
+        self.origin, self.scale = np.array(origin, dtype=float), np.array(scale, dtype=float)
+        self._W, self._y = W, y
+
+    def rn(self, rows) -> tuple[np.ndarray, np.ndarray]:
+        """(r, n) of the strips ``rows`` (index array or slice)."""
+        return frame_rows(np.ascontiguousarray(self._W[rows]), self._y[rows], self.origin, self.scale)
+
+    @cached_property
+    def _full(self) -> tuple[np.ndarray, np.ndarray]:
+        return frame_rows(self._W, self._y, self.origin, self.scale)
+
+    @property
+    def r(self) -> np.ndarray:
+        return self._full[0]
+
+    @property
+    def n(self) -> np.ndarray:
+        return self._full[1]
 
     def to_theta(self, Z: np.ndarray) -> np.ndarray:
         return self.origin + self.scale * Z
@@ -234,11 +252,7 @@ class Polytope:
         X = np.atleast_2d(as_float_array(points, "points"))
         if X.shape[-1] != self.dim:
             raise InputError(f"points must have {self.dim} columns, got shape {X.shape}.")
-        out = np.zeros(X.shape[0])
-        for sl in _chunks(self.n_strips):
-            R = np.abs(self.y[sl, None] - self.W[sl] @ X.T) / self.e_max[sl, None]
-            out = np.maximum(out, R.max(axis=0))
-        return out
+        return max_ratio(self.W, self.y, self.e_max, np.ascontiguousarray(X, dtype=float))
 
     def contains(self, points, atol: float = 1e-9) -> np.ndarray | bool:
         """Whether each point (row of ``points``) satisfies every constraint up to ``atol``
@@ -284,24 +298,13 @@ class Polytope:
 
     # ------------------------------------------------------------------ the frame
     def _make_frame(self, origin: np.ndarray, scale: np.ndarray) -> _Frame:
-        N = self.n_strips
-        r, n = np.empty(N), np.empty(N)
-        for sl in _chunks(N):
-            Ws = self.W[sl]
-            r[sl] = self.y[sl] - Ws @ origin
-            Ws = Ws * scale
-            n[sl] = np.sqrt(np.einsum("ij,ij->i", Ws, Ws))
-        n[n == 0] = 1.0
-        return _Frame(origin.copy(), scale.copy(), r, n)
+        return _Frame(origin, scale, self.W, self.y)
 
     def _first_frame(self) -> _Frame:
         """Column equilibration (capped by the box) and a least-squares origin (module docstring)."""
         W, y, e = self.W, self.y, self.e_max
         N, p = W.shape
-        ss = np.zeros(p)
-        for sl in _chunks(N):
-            ss += np.einsum("ij,ij->j", W[sl], W[sl] / e[sl, None] ** 2)
-        rms = np.sqrt(ss / N)
+        rms = col_rms(W, e)
         scale = np.where(rms > 0, 1.0 / np.where(rms > 0, rms, 1.0), np.inf)
         if self.box is not None:
             hb = 0.5 * (self.box[1] - self.box[0])
@@ -327,8 +330,13 @@ class Polytope:
         return self._frame
 
     def _strip_block(self, F: _Frame) -> Block:
-        """The strips in frame F: (r_k - e_k)/n_k <= (w_k * scale)^T z / n_k <= (r_k + e_k)/n_k."""
+        """The strips in frame F: (r_k - e_k)/n_k <= (w_k * scale)^T z / n_k <= (r_k + e_k)/n_k,
+        as arrays of every row (bounds that can be changed one by one)."""
         return Block(self.W, (F.r - self.e_max) / F.n, (F.r + self.e_max) / F.n, d=F.scale, s=F.n)
+
+    def _strip_pool(self, F: _Frame) -> StripBlock:
+        """The same strips, each row computed when a pass or the working set uses it."""
+        return StripBlock(self.W, self.y, self.e_max, F.origin, F.scale)
 
     def _halfspace_block(self, F: _Frame, g_extra=None) -> Block:
         if self.halfspaces is None:
@@ -354,7 +362,7 @@ class Polytope:
         W, N, p = self.W, self.n_strips, self.dim
         rows = np.unique(np.linspace(0, N - 1, min(N, 20 * p)).astype(np.int64))
         for _ in range(p + 1):
-            A = W[rows] * F.scale / F.n[rows, None]
+            A = W[rows] * F.scale / F.rn(rows)[1][:, None]
             R, piv = scipy.linalg.qr(A.T, mode="r", pivoting=True)
             d = np.abs(np.diag(R))
             r = int(np.sum(d > max(N, p) * _EPS * d[0])) if d.size and d[0] > 0 else 0
@@ -364,7 +372,7 @@ class Polytope:
             null = Vt[r:]                          # directions the sample does not see
             best, arg = np.zeros(null.shape[0]), np.zeros(null.shape[0], dtype=np.int64)
             for sl in _chunks(N):
-                proj = np.abs((W[sl] * F.scale / F.n[sl, None]) @ null.T)
+                proj = np.abs((W[sl] * F.scale / F.rn(sl)[1][:, None]) @ null.T)
                 i = np.argmax(proj, axis=0)
                 better = proj[i, np.arange(len(i))] > best
                 best[better], arg[better] = proj[i, np.arange(len(i))][better], sl.start + i[better]
@@ -376,7 +384,7 @@ class Polytope:
         if self._rank is None:
             G = np.zeros((self.dim, self.dim))
             for sl in _chunks(self.n_strips):
-                A = self.W[sl] * F.scale / F.n[sl, None]
+                A = self.W[sl] * F.scale / F.rn(sl)[1][:, None]
                 G += A.T @ A
             ev = np.clip(np.linalg.eigvalsh(G)[::-1], 0.0, None)
             sv = np.sqrt(ev)
@@ -386,7 +394,7 @@ class Polytope:
     def _theta_engine(self) -> WorkingSetLP:
         if self._engine is None:
             F = self._get_frame()
-            self._engine = WorkingSetLP([self._strip_block(F), self._halfspace_block(F)], *self._col_bounds(F),
+            self._engine = WorkingSetLP([self._strip_pool(F), self._halfspace_block(F)], *self._col_bounds(F),
                                         seed=[(0, self._seed(F)), (1, np.arange(self._n_half))], tol=LP_TOL)
         return self._engine
 
@@ -394,14 +402,13 @@ class Polytope:
     def _n_half(self) -> int:
         return 0 if self.halfspaces is None else len(self.halfspaces[1])
 
-    def _box_reach(self, F: _Frame) -> np.ndarray:
-        """Strips not implied by the box [-1, 1]^p of frame F: |g_k|_1 reaches a side (one pass)."""
-        keep = np.zeros(self.n_strips, dtype=bool)
-        for sl in _chunks(self.n_strips):
-            reach = np.abs(self.W[sl]) @ F.scale / F.n[sl]
-            mid, half = F.r[sl] / F.n[sl], self.e_max[sl] / F.n[sl]
-            keep[sl] = reach + np.abs(mid) > half - _TOUCH_TOL * (1.0 + half + np.abs(mid))
-        return np.flatnonzero(keep)
+    def _box_reach(self, F: _Frame, rows: np.ndarray | None = None) -> np.ndarray:
+        """Strips not implied by the box [-1, 1]^p of frame F (|g_k|_1 reaches a side, with a
+        relative margin _TOUCH_TOL): the strips of ``rows`` (None: all, one pass) that P can
+        touch if P lies in that box."""
+        sel = np.zeros(0, dtype=np.int64) if rows is None else np.asarray(rows, dtype=np.int64)
+        keep = box_reach(self.W, self.y, self.e_max, sel, F.origin, F.scale, 1.0, _TOUCH_TOL)
+        return np.flatnonzero(keep) if rows is None else sel[keep]
 
     def _set_frame(self, F: _Frame, pool: np.ndarray | None = None) -> None:
         """Move the LPs to frame F, keeping the working set's rows; ``pool``: the strips the
@@ -410,7 +417,7 @@ class Polytope:
         self._frame = F
         seed = [(0, old.ws_rows(0)), (1, np.arange(self._n_half))] if old is not None else \
             [(0, self._seed(F)), (1, np.arange(self._n_half))]
-        self._engine = WorkingSetLP([self._strip_block(F), self._halfspace_block(F)], *self._col_bounds(F),
+        self._engine = WorkingSetLP([self._strip_pool(F), self._halfspace_block(F)], *self._col_bounds(F),
                                     seed=seed, tol=LP_TOL)
         if old is not None:
             self._engine.take_basis(old)
@@ -554,8 +561,9 @@ class Polytope:
                 count()
             Zt = F.to_theta(Z)
             # every later optimum lies in the working set's polytope, inside this stage's
-            # bounding box ([-1, 1]^p in box_frame): a strip containing that box is never violated
-            reach = self._box_reach(box_frame)
+            # bounding box ([-1, 1]^p in box_frame): a strip containing that box is never violated.
+            # The boxes only shrink, so only the strips that reached the last one are tested again
+            reach = self._box_reach(box_frame, reach)
             self._set_frame(box_frame, reach)
             Z = (Zt - box_frame.origin) / box_frame.scale
             F = box_frame
@@ -678,9 +686,10 @@ class Polytope:
         self.bounds()
         eng = self._engine
         F = self._frame
-        G = self.W[rows] * F.scale / F.n[rows, None]
+        r, n = F.rn(rows)
+        G = self.W[rows] * F.scale / n[:, None]
         D = np.vstack([G, -G])
-        side = np.concatenate([(F.r[rows] + self.e_max[rows]) / F.n[rows], -(F.r[rows] - self.e_max[rows]) / F.n[rows]])
+        side = np.concatenate([(r + self.e_max[rows]) / n, -(r - self.e_max[rows]) / n])
         # a side that a known point of P touches is the support itself: no LP
         Zk = (self.found_points() - F.origin) / F.scale
         touched = np.max(D @ Zk.T, axis=1) >= side - LP_TOL if len(Zk) else np.zeros(len(D), dtype=bool)
@@ -709,11 +718,10 @@ class Polytope:
         if rows.ndim != 1 or rows.size == 0 or rows.min() < 0 or rows.max() >= self.n_strips:
             raise InputError(f"rows must be a non-empty list of strip indices in [0, {self.n_strips}).")
         lz, uz = self._strip_extents(rows)
-        F = self._frame
-        n = F.n[rows]
+        r, n = self._frame.rn(rows)
         # w^T theta = w^T origin + n * (unit row)^T z; as residual bounds on r = y - w^T theta
-        r_hi = F.r[rows] - n * (lz - LP_TOL)      # residual at the low end of w^T theta
-        r_lo = F.r[rows] - n * (uz + LP_TOL)
+        r_hi = r - n * (lz - LP_TOL)              # residual at the low end of w^T theta
+        r_lo = r - n * (uz + LP_TOL)
         e = self.e_max[rows]
         r_lo, r_hi = np.maximum(r_lo, -e), np.minimum(r_hi, e)
         half = np.maximum(0.5 * (r_hi - r_lo), 1e-12 * e)
