@@ -229,3 +229,68 @@ def test_support_point_is_a_maximiser():
         v, x = P.support_point(d)
         assert v == pytest.approx(np.max(V @ d), rel=1e-9, abs=1e-9)
         assert d @ x == pytest.approx(v, rel=1e-9, abs=1e-9) and P.contains(x, atol=1e-8)
+
+
+def one_lp_per_side(W, y, e, box=None, halfspaces=None):
+    """The textbook redundancy removal, kept here only as the independent reference: sequential
+    elimination over every side of every strip in index order (upper, then lower side), each
+    tested by one scipy linprog (HiGHS) with that side removed: kept if g^T theta can then exceed
+    its bound by more than 1e-8 (1 + |bound|) (or without limit). Rows are w/e normalised to unit
+    norm. Returns the strips with a kept side."""
+    A, c = W / e[:, None], y / e
+    nrm = np.linalg.norm(A, axis=1)
+    G = np.empty((2 * len(y), W.shape[1]))
+    G[0::2], G[1::2] = A / nrm[:, None], -A / nrm[:, None]
+    b = np.empty(2 * len(y))
+    b[0::2], b[1::2] = (c + 1) / nrm, (1 - c) / nrm
+    H = np.zeros((0, W.shape[1])) if halfspaces is None else np.asarray(halfspaces[0], dtype=float)
+    h = np.zeros(0) if halfspaces is None else np.asarray(halfspaces[1], dtype=float)
+    bounds = [(None, None)] * W.shape[1] if box is None else list(zip(*box, strict=True))
+    alive = np.ones(len(b), dtype=bool)
+    for i in range(len(b)):
+        others = alive.copy()
+        others[i] = False
+        res = linprog(-G[i], A_ub=np.vstack([G[others], H]), b_ub=np.concatenate([b[others], h]),
+                      bounds=bounds, method="highs")
+        assert res.status in (0, 3), res.message
+        alive[i] = res.status == 3 or -res.fun > b[i] + 1e-8 * (1 + abs(b[i]))
+    return np.unique(np.flatnonzero(alive) // 2)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_nonredundant_equals_one_lp_per_side(seed):
+    """nonredundant() (box screen, ray shooting, batched Clarkson test) returns exactly the
+    strips of the one-LP-per-side sequential elimination (scipy linprog, reference above), with
+    and without a prior box and halfspaces, duplicated strips included."""
+    rng = np.random.default_rng(100 + seed)
+    p, N = int(rng.integers(2, 6)), int(rng.integers(15, 120))
+    W, y, e, theta = random_problem(rng, p, N)
+    if seed % 4 == 3:                                     # exact duplicates of a few strips
+        W, y, e = np.vstack([W, W[:4]]), np.r_[y, y[:4]], np.r_[e, e[:4]]
+    box = hs = None
+    if seed % 3 == 1:
+        b = Polytope.from_strips(W, y, e).bounds()
+        box = (b.center - 0.6 * b.half_width, b.center + 0.9 * b.half_width)
+        H = rng.normal(size=(2, p))
+        hs = (H, H @ b.center + 0.3 * np.abs(H) @ b.half_width)
+    P = Polytope.from_strips(W, y, e, box=box, halfspaces=hs)
+    assert np.array_equal(P.nonredundant(), one_lp_per_side(W, y, e, box, hs))
+
+
+def test_nonredundant_without_interior():
+    """A P flat along one direction (two strips meet in a hyperplane) has no interior: the
+    relaxed-LP path decides every side. The strips returned give back P (equal supports in
+    random directions, by HiGHS on the subset) and each is needed (the reference's criterion)."""
+    rng = np.random.default_rng(21)
+    W, y, e, theta = random_problem(rng, 3, 40)
+    w = np.array([0.3, -0.7, 0.5])
+    s = w @ theta
+    W, y, e = np.vstack([W, w, w]), np.r_[y, s - 1.0, s + 1.0], np.r_[e, 1.0, 1.0]   # w^T theta = s
+    P = Polytope.from_strips(W, y, e)
+    keep = P.nonredundant()
+    assert {40, 41} <= set(keep.tolist())
+    ref = one_lp_per_side(W, y, e)
+    assert set(ref.tolist()) == set(keep.tolist())
+    sub = Polytope.from_strips(W[keep], y[keep], e[keep])
+    for d in rng.normal(size=(6, 3)):
+        assert sub.support(d) == pytest.approx(P.support(d), abs=1e-8)

@@ -430,6 +430,13 @@ class WorkingSetLP:
             basis.row_status = status + [_BASIC] * (self.n_rows - len(status))
         self.h.setBasis(basis)
 
+    def set_col_bounds(self, lo: np.ndarray, hi: np.ndarray) -> None:
+        """Change the column bounds (+-inf allowed)."""
+        self.col_lo, self.col_hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+        self.h.changeColsBounds(self.n_cols, np.arange(self.n_cols, dtype=np.int32),
+                                np.where(np.isfinite(self.col_lo), self.col_lo, -_INF),
+                                np.where(np.isfinite(self.col_hi), self.col_hi, _INF))
+
     def ws_rows(self, b: int) -> np.ndarray:
         """Pool indices of block ``b`` in the working set."""
         return np.flatnonzero(self.in_ws[b])
@@ -491,6 +498,12 @@ class WorkingSetLP:
         h.run()
         self.n_solves += 1
         st = h.getModelStatus()
+        if st == _STATUS.kNotset:
+            # HiGHS stopped before solving (seen rarely after many warm re-solves: it rejects
+            # its own carried basis): the same LP once more from scratch
+            h.clearSolver()
+            h.run()
+            st = h.getModelStatus()
         if st == _STATUS.kInfeasible:
             raise LPStatusError("infeasible")
         if st in (_STATUS.kUnbounded, _STATUS.kUnboundedOrInfeasible):
@@ -541,59 +554,86 @@ class WorkingSetLP:
         x = self.minimize_many(np.asarray(cost, dtype=float)[None, :])[0]
         return x, float(np.asarray(cost, dtype=float) @ x)
 
-    def active_normals(self, x: np.ndarray) -> np.ndarray | None:
-        """Outward normals (rows) of the constraints active at the optimal vertex x, (n_cols,
-        n_cols): x is optimal for every direction in their cone. The active set is read from the
-        activities (fast); at a degenerate vertex (more than n_cols active) from HiGHS's basis,
-        the nonbasic constraints. None if neither gives n_cols normals."""
+    def active_normals(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The constraints active at the optimal vertex x as (N, own, opp): outward normals N
+        (n_cols, n_cols), so that x is optimal for every direction in their cone; own, opp
+        (n_cols,): every point of the working set's polytope has N x <= own and -N x <= opp (the
+        other side of the same row or column bound; inf if it has none). The active set is read
+        from the activities (fast); at a degenerate vertex (more than n_cols active) from HiGHS's
+        basis, the nonbasic constraints. None if neither gives n_cols normals."""
         act = self._ws_coef @ x
         tol = 1e-9 * (1.0 + np.abs(act))
         up, lo = act >= self._ws_up - tol, act <= self._ws_lo + tol
         cu = x >= self.col_hi - 1e-9 * (1.0 + np.abs(x))
         cl = x <= self.col_lo + 1e-9 * (1.0 + np.abs(x))
-        if int(up.sum() + lo.sum() + cu.sum() + cl.sum()) == self.n_cols:
-            I = np.eye(self.n_cols)
-            return np.vstack([I[cu], -I[cl], self._ws_coef[up], -self._ws_coef[lo]])
-        basis = self.h.getBasis()
-        N = []
-        for j, s in enumerate(basis.col_status):
-            if s == _AT_UPPER:
-                N.append(np.eye(self.n_cols)[j])
-            elif s == _AT_LOWER:
-                N.append(-np.eye(self.n_cols)[j])
-        rs = basis.row_status
-        up = [r for r, s in enumerate(rs) if s == _AT_UPPER]
-        lo = [r for r, s in enumerate(rs) if s == _AT_LOWER]
-        N = np.vstack([np.array(N).reshape(-1, self.n_cols), self._ws_coef[up], -self._ws_coef[lo]])
-        return N if N.shape[0] == self.n_cols else None
+        if int(up.sum() + lo.sum() + cu.sum() + cl.sum()) != self.n_cols:
+            basis = self.h.getBasis()
+            cs = np.array([int(s.value) for s in basis.col_status])
+            rs = np.array([int(s.value) for s in basis.row_status])
+            cu, cl = cs == int(_AT_UPPER.value), cs == int(_AT_LOWER.value)
+            up, lo = rs == int(_AT_UPPER.value), rs == int(_AT_LOWER.value)
+            if int(up.sum() + lo.sum() + cu.sum() + cl.sum()) != self.n_cols:
+                return None
+        I = np.eye(self.n_cols)
+        N = np.vstack([I[cu], -I[cl], self._ws_coef[up], -self._ws_coef[lo]])
+        own = np.concatenate([self.col_hi[cu], -self.col_lo[cl], self._ws_up[up], -self._ws_lo[lo]])
+        opp = np.concatenate([-self.col_lo[cu], self.col_hi[cl], -self._ws_lo[up], self._ws_up[lo]])
+        return N, own, opp
 
     @one_blas_thread
-    def supports(self, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """max over the pool's polytope of d^T x for each row d of ``dirs`` (k, n_cols).
+    def supports(self, dirs: np.ndarray, below: np.ndarray | None = None,
+                 outer: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """max over the pool's polytope of d^T x for each row d of ``dirs`` (see :func:`supports`)."""
+        return supports(self, dirs, below, outer)
 
-        Returns (values (k,), vertices (v, n_cols), which (k,) index of the maximising vertex).
-        One LP per distinct optimal basis: after each LP, every pending direction inside the
-        normal cone of its basis is answered by the same vertex (exactly, no LP).
-        """
-        dirs = np.atleast_2d(np.asarray(dirs, dtype=float))
-        k = dirs.shape[0]
-        values, which, verts = np.full(k, np.nan), np.full(k, -1, dtype=np.int64), []
-        pending = np.arange(k)
-        while pending.size:
-            i = pending[0]
-            x = self.minimize_many(-dirs[i][None, :])[0]
-            verts.append(x)
-            covered = pending == i
-            N = self.active_normals(x)
-            if N is not None:
-                try:
-                    lam = np.linalg.solve(N.T, dirs[pending].T)
-                except np.linalg.LinAlgError:
-                    lam = None
-                if lam is not None:
-                    scale = np.linalg.norm(dirs[pending], axis=1)
-                    covered |= np.all(lam >= -_CONE_TOL * scale, axis=0)
-            values[pending[covered]] = dirs[pending[covered]] @ x
-            which[pending[covered]] = len(verts) - 1
-            pending = pending[~covered]
-        return values, np.array(verts), which
+
+def supports(lp, dirs: np.ndarray, below: np.ndarray | None = None,
+             outer: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """max over the polytope of ``lp`` (a :class:`WorkingSetLP`) of d^T x
+    for each row d of ``dirs`` (k, n_cols).
+
+    Returns (values (k,), vertices (v, n_cols), which (k,) index of the maximising vertex).
+    One LP per distinct optimal basis: after each LP, every pending direction inside the
+    normal cone of its basis is answered by the same vertex (exactly, no LP).
+
+    ``below`` (k,): only whether each support is below ``below`` is wanted. After each LP,
+    every pending d = N^T lam (N the basis's normals) gets the bound
+    sum_{lam_j > 0} lam_j own_j + sum_{lam_j < 0} |lam_j| opp_j >= its support (LP duality,
+    from the two sides of each basic constraint, or from ``outer``, a box (lo, hi) known to
+    contain the polytope); a direction whose bound falls below ``below`` is settled without
+    an LP: its value is that bound and ``which`` is -1. The LPs take the pending directions in
+    order (neighbours in the data are often neighbours on the polytope: warm starts).
+    """
+    dirs = np.atleast_2d(np.asarray(dirs, dtype=float))
+    k = dirs.shape[0]
+    values, which, verts = np.full(k, np.nan), np.full(k, -1, dtype=np.int64), []
+    ub = np.full(k, np.inf)
+    pending = np.arange(k)
+    while pending.size:
+        i = pending[0]
+        x = lp.minimize_many(-dirs[i][None, :])[0]
+        verts.append(x)
+        covered = pending == i
+        screened = np.zeros(pending.size, dtype=bool)
+        found = lp.active_normals(x)
+        if found is not None:
+            N, own, opp = found
+            try:
+                lam = np.linalg.solve(N.T, dirs[pending].T)
+            except np.linalg.LinAlgError:
+                lam = None
+            if lam is not None:
+                scale = np.linalg.norm(dirs[pending], axis=1)
+                covered |= np.all(lam >= -_CONE_TOL * scale, axis=0)
+                if below is not None:
+                    if outer is not None:           # -n^T x over the box, for each normal n
+                        opp = np.minimum(opp, np.maximum(-N * outer[0], -N * outer[1]).sum(axis=1))
+                    with np.errstate(invalid="ignore"):
+                        bound = np.where(lam > 0, lam * own[:, None], -lam * opp[:, None]).sum(axis=0)
+                    ub[pending] = np.minimum(ub[pending], np.where(np.isnan(bound), np.inf, bound))
+                    screened = ~covered & (ub[pending] < below[pending])
+        values[pending[covered]] = dirs[pending[covered]] @ x
+        which[pending[covered]] = len(verts) - 1
+        values[pending[screened]] = ub[pending[screened]]
+        pending = pending[~covered & ~screened]
+    return values, np.array(verts), which
