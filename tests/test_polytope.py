@@ -294,3 +294,62 @@ def test_nonredundant_without_interior():
     sub = Polytope.from_strips(W[keep], y[keep], e[keep])
     for d in rng.normal(size=(6, 3)):
         assert sub.support(d) == pytest.approx(P.support(d), abs=1e-8)
+
+
+def test_staged_bounds_and_consistency_match_linprog(monkeypatch):
+    """The staged paths (strided samples, box screens, changes of frame, screened consistency
+    LP), normally taken from N = 160,000 on, forced at N = 6000 by smaller stages: bounds()
+    equal 2p scipy linprog solves on every strip, gamma* equals the minimax linprog (with an
+    outlier, gamma* > 1, and without), and on consistent data the level screen drops strips."""
+    import boundid.sets.polytope as pm
+    from boundid.sets._working_set import sample_levels
+
+    monkeypatch.setattr(pm, "sample_levels", lambda m: sample_levels(m, smallest=200, ratio=4))
+    kept = []
+    screen = pm.Polytope._level_screen
+    monkeypatch.setattr(pm.Polytope, "_level_screen", lambda self, *a: kept.append(screen(self, *a)) or kept[-1])
+    rng = np.random.default_rng(17)
+    W, y, e, theta = random_problem(rng, 5, 6000)
+    b = Polytope.from_strips(W, y, e).bounds()
+    A_ub, b_ub = np.vstack([W, -W]), np.concatenate([y + e, e - y])
+    for j in range(5):
+        c = np.eye(5)[j]
+        assert b.lo[j] == pytest.approx(linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=(None, None)).fun, abs=1e-8)
+        assert b.hi[j] == pytest.approx(-linprog(-c, A_ub=A_ub, b_ub=b_ub, bounds=(None, None)).fun, abs=1e-8)
+    y_out = y.copy()
+    y_out[123] += 30.0
+    for yy in (y, y_out):
+        Wn, yn = W / e[:, None], yy / e
+        ref = linprog(np.r_[np.zeros(5), 1.0], A_ub=np.vstack([np.hstack([Wn, -np.ones((6000, 1))]),
+                                                               np.hstack([-Wn, -np.ones((6000, 1))])]),
+                      b_ub=np.r_[yn, -yn], bounds=[(None, None)] * 5 + [(0, None)])
+        assert Polytope.from_strips(W, yy, e).consistency().gamma == pytest.approx(ref.fun, rel=1e-8)
+    assert len(kept) == 2 and kept[0] is not None and len(kept[0]) < 6000
+
+
+def test_strip_block_equals_explicit_rows():
+    """StripBlock (rows computed on demand) gives the rows, bounds and violations of the same
+    strips written out as arrays with numpy (r = y - W origin, n = |w * scale|)."""
+    from boundid.sets._working_set import StripBlock
+
+    rng = np.random.default_rng(8)
+    W, y, e, _ = random_problem(rng, 4, 300)
+    origin, scale = rng.normal(size=4), 10.0 ** rng.uniform(-2, 2, 4)
+    r, n = y - W @ origin, np.linalg.norm(W * scale, axis=1)
+    A = W * scale / n[:, None]
+    idx = rng.choice(300, 40, replace=False)
+    X = rng.normal(size=(5, 3))
+    blk = StripBlock(W, y, e, origin, scale)
+    assert np.allclose(blk.rows(idx), A[idx], rtol=1e-13, atol=0)
+    lo, up = blk.bounds(idx)
+    assert np.allclose(lo, ((r - e) / n)[idx], rtol=1e-12) and np.allclose(up, ((r + e) / n)[idx], rtol=1e-12)
+    act = A @ X[:4]
+    assert np.allclose(blk.violation(slice(0, 300), X[:4]), np.abs(act - (r / n)[:, None]) - (e / n)[:, None],
+                       atol=1e-12)
+    for side in (1, -1):                       # the consistency LP's rows on (z, t)
+        s = np.hypot(n, e)
+        sb = StripBlock(W, y, e, origin, scale, side=side)
+        assert np.allclose(sb.rows(idx), np.hstack([W * scale, side * e[:, None]])[idx] / s[idx, None], rtol=1e-13)
+        act = (W * scale @ X[:4] + side * e[:, None] * X[4]) / s[:, None]
+        want = (r / s)[:, None] - act if side > 0 else act - (r / s)[:, None]
+        assert np.allclose(sb.violation(slice(0, 300), X), want, atol=1e-12)

@@ -345,7 +345,8 @@ class WorkingSetLP:
         self.batch = batch
         self.max_rounds = max_rounds
         self.in_ws = [np.zeros(b.m, dtype=bool) for b in self.blocks]
-        self.row_of = [np.full(b.m, -1, dtype=np.int64) for b in self.blocks]
+        #: HiGHS row of each pool row in the working set (read only where in_ws; never filled)
+        self.row_of = [np.empty(b.m, dtype=np.int64) for b in self.blocks]
         #: the part of each block's pool that passes look at (None: all of it); the caller may
         #: leave out rows that no future optimum can violate (e.g. strips containing a box that
         #: contains the working set's polytope)
@@ -444,8 +445,8 @@ class WorkingSetLP:
     def set_bounds(self, b: int, k: int, lo: float, up: float) -> None:
         """Change the bounds of pool row k of block b (and of its working-set copy)."""
         self.blocks[b].set_bounds(k, lo, up)
-        r = self.row_of[b][k]
-        if r >= 0:
+        if self.in_ws[b][k]:
+            r = self.row_of[b][k]
             self._ws_lo[r], self._ws_up[r] = lo, up
             self.h.changeRowBounds(int(r), lo if np.isfinite(lo) else -_INF, up if np.isfinite(up) else _INF)
 
