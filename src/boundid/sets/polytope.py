@@ -19,7 +19,12 @@ the parameters or of y:
   bounding box (which contains P's) and drops the strips that contain the box (no later optimum
   can violate them: the box-screen of issue 19); the last stage is re-solved once more in the
   final box frame when that frame was off by more than 10x in some direction and the vertices
-  fail their certificate (see Bounds) where they were solved.
+  fail their certificate (see Bounds) where they were solved. The boxes only shrink, so each
+  screen tests only the strips the previous box left.
+
+A frame stores no array of size N: r_k and n_k below are computed (compiled, one read of the row)
+for the rows a pass or the working set uses, so the passes over all N rows are three: the column
+scales, the first box screen and the residuals of the certificate.
 
 In z, strip k is {z : |r_k - (w_k * scale)^T z| <= e_k} with r_k = y_k - w_k^T origin; each row
 is divided by n_k = |w_k * scale|, so the LP rows have unit norm, the strip's half-width is
