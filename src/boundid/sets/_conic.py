@@ -37,6 +37,8 @@ from boundid.errors import SolverError
 #: a pool row counts as violated above this (in the problem's scaled units)
 GEN_TOL = 1e-9
 _OK = (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
+#: Clarabel settings of the second attempt after a numerical failure
+RETRY = {"tol_gap_abs": 1e-7, "tol_gap_rel": 1e-7, "tol_feas": 1e-7, "static_regularization_constant": 1e-7}
 
 
 @dataclass
@@ -229,14 +231,18 @@ class ConicProblem:
 
 def _solve(prob: cp.Problem, what: str) -> str:
     """Solve with Clarabel; raise SolverError unless the answer is optimal (or 'optimal_inaccurate',
-    whose answer the callers verify like any other)."""
-    try:
-        with warnings.catch_warnings():     # "may be inaccurate": the callers verify every answer
-            warnings.simplefilter("ignore", UserWarning)
-            prob.solve(solver=cp.CLARABEL)
-        status = prob.status
-    except cp.error.SolverError as exc:
-        status = f"solver error ({exc})"
+    whose answer the callers verify like any other). A solve that stops on a numerical error is
+    tried once more with the tolerances 1e-7 and a stronger static regularisation (RETRY)."""
+    for settings in ({}, RETRY):
+        try:
+            with warnings.catch_warnings():     # "may be inaccurate": the callers verify every answer
+                warnings.simplefilter("ignore", UserWarning)
+                prob.solve(solver=cp.CLARABEL, **settings)
+            status = prob.status
+        except cp.error.SolverError as exc:
+            status = f"solver error ({exc})"
+        if status in _OK or status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+            break
     if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
         raise InfeasibleProblem(what)
     if status not in _OK:

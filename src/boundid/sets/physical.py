@@ -170,14 +170,15 @@ def _variables(cons: PhysicalConstraints, origin: np.ndarray, scale: np.ndarray)
     K = cons.lift
     n = cons.dim
     dx = cons.scale.copy() if cons.scale is not None else np.ones(n)
+    x0 = np.zeros(n)
     nz = K != 0
     for j in range(n):
         rows = np.flatnonzero(nz[:, j])
         if rows.size == 1 and K[rows[0], j] == 1.0 and nz[rows[0]].sum() == 1:
             dx[j] = scale[rows[0]]
     T = (K * dx[None, :]) / scale[:, None]
-    x0 = np.zeros(n)
-    return _Vars(n, T, -origin / scale, x0, dx, cons.in_coordinates(x0, np.diag(dx)), np.linalg.pinv(K), True)
+    return _Vars(n, T, (K @ x0 - origin) / scale, x0, dx, cons.in_coordinates(x0, np.diag(dx)),
+                 np.linalg.pinv(K), True)
 
 
 def _margin_rows(vars_: _Vars, rho_scale: float):
@@ -300,27 +301,32 @@ class PhysicalSet:
     # ------------------------------------------------------------------ verification
     def _excess(self, theta: np.ndarray, V: _Vars, Vpts: np.ndarray, scale: np.ndarray, gamma: float = 1.0,
                 where: str = "") -> float:
-        """Largest violation / PRIMAL_TOL of the points over every strip (original data, residual
-        bound gamma e), the prior box and every constraint (frame units); SolverError above 1."""
+        """Largest violation / tolerance of the points over every strip (original data, residual
+        bound gamma e), the prior box and every constraint (frame units); SolverError above 1.
+        The tolerance is PRIMAL_TOL, times max(1, |v|_inf) for lifted variables: interior-point
+        residuals are relative to the iterate, which grows along the unbounded directions of the
+        standard parameters the data cannot see."""
         P = self.plain
         X = np.atleast_2d(theta)
+        Vp = np.atleast_2d(Vpts)
+        size = np.maximum(1.0, np.abs(Vp[:, :V.n]).max(axis=1)) if V.lifted else np.ones(len(Vp))
         worst, what = 0.0, ""
         Ws = P.W * scale
         nrm = np.linalg.norm(Ws, axis=1)
         nrm[nrm == 0] = 1.0
         R = np.abs(P.y[:, None] - P.W @ X.T) - gamma * P.e_max[:, None]
         rnd = 16 * _EPS * (np.abs(P.y)[:, None] + np.abs(P.W) @ np.abs(X).T)
-        q = (R - rnd) / nrm[:, None] / PRIMAL_TOL
+        q = (R - rnd) / nrm[:, None] / (PRIMAL_TOL * size[None, :])
         if q.size and q.max() > worst:
             worst, what = float(q.max()), f"strip {int(np.unravel_index(np.argmax(q), q.shape)[0])}"
         if P.box is not None:
-            qb = np.maximum(P.box[0] - X, X - P.box[1]) / scale / PRIMAL_TOL
+            qb = np.maximum(P.box[0] - X, X - P.box[1]) / scale / (PRIMAL_TOL * size[:, None])
             if qb.max() > worst:
                 worst, what = float(qb.max()), "prior box"
-        vi = V.cons.violations(Vpts[:, :V.n])
-        if vi.size and vi.max() / PRIMAL_TOL > worst:
+        vi = V.cons.violations(Vp[:, :V.n]) / (PRIMAL_TOL * size[:, None])
+        if vi.size and vi.max() > worst:
             k = int(np.unravel_index(np.argmax(vi), vi.shape)[1])
-            worst, what = float(vi.max()) / PRIMAL_TOL, f"constraint {V.cons.labels[k]!r}"
+            worst, what = float(vi.max()), f"constraint {V.cons.labels[k]!r}"
         if worst > 1.0:
             raise SolverError(
                 f"{where}: a solution violates the {what} by {worst:.3g} times the stated tolerance "
@@ -448,10 +454,6 @@ class PhysicalSet:
         V = _variables(self.constraints, origin, scale)
         p, n = self.dim, V.n
         zlo, zhi = self._z_box(origin, scale, lp_box)
-        prob = ConicProblem(n, box=None if V.lifted else (zlo, zhi), what="physically consistent bounds")
-        if V.lifted:
-            self._add_z_box(prob, V, zlo, zhi)
-        self._constraint_parts(prob, V)
         G, c, h = self._strips(origin, scale)
         GT = G @ V.T
         fin = np.isfinite(h)
@@ -468,6 +470,11 @@ class PhysicalSet:
         plain_b = self.plain.bounds()
         seed = self._seed(G, c, h, (plain_b.vertices() - origin) / scale)
         costs = np.vstack([V.T, -V.T])
+
+        prob = ConicProblem(n, box=None if V.lifted else (zlo, zhi), what="physically consistent bounds")
+        if V.lifted:
+            self._add_z_box(prob, V, zlo, zhi)
+        self._constraint_parts(prob, V)
         try:
             r = prob.minimize_many(costs, Pool(rows, violation, len(h)), seed=seed)
         except InfeasibleProblem:
@@ -588,7 +595,7 @@ def column_bounds(cons: PhysicalConstraints) -> tuple[np.ndarray, np.ndarray]:
         if coef > 0:
             hi[i] = min(hi[i], bi / coef)
         else:
-            lo[i] = max(lo[i], bi / coef)
+            lo[i] = max(lo[i], bi / coef) + 0.0          # + 0.0: no -0.0
     return lo, hi
 
 
