@@ -36,7 +36,8 @@ and the UR5), `max_dev` = largest difference to that reference in half-widths;
 `width_ratio` = mean over parameters of the physical width over the plain width. Then one row per
 parameter (`plain_lo`..`phys_hi`, `truth`), and the physically consistent estimates on the study
 regressions: OLS under the constraints, and the OBE (factorized, volume, the study's bound and
-prior box) intersected with the physical set (`detail`: whether the raw centre is physical).
+prior box) intersected with the physical set (`time_s` the physical step, `plain_time_s` the raw
+estimator's fit; `detail`: whether the raw centre is physical).
 Every row records the 1-minute load average (2 shared cores).
 """
 

@@ -2,7 +2,7 @@
 set estimates intersected with the physical set.
 
 * :func:`physical_least_squares` is OLS or Gautier's WLS (:mod:`boundid.estimators.least_squares`)
-  solved under the constraints (a conic program: Clarabel through cvxpy, as FloBaRoID solves
+  solved under the constraints (a conic program: Clarabel through cvxpy, as [FloBaRoID] solves
   its LMI-constrained least squares [WensingKimSlotine2018]). Its confidence set is the
   unconstrained estimator's chi-square ellipsoid intersected with the physical set: a truth that
   is physical lies in the intersection exactly when it lies in the ellipsoid, so the level is
@@ -30,14 +30,9 @@ from boundid._validation import as_regression
 from boundid.errors import InfeasibleDataError, InputError
 from boundid.estimators.estimate import Estimate
 from boundid.estimators.least_squares import ols, wls
-from boundid.sets._conic import ConicProblem, InfeasibleProblem
 from boundid.sets.constraints import PhysicalConstraints
 from boundid.sets.ellipsoid import Ellipsoid
-from boundid.sets.physical import ConstrainedEllipsoid, _variables, column_bounds, physical_margin
-
-#: a constraint counts as active at the constrained solution when its violation (a distance in
-#: the solver's column-scaled coordinates) exceeds -ACTIVE_TOL
-ACTIVE_TOL = 1e-6
+from boundid.sets.physical import ConstrainedEllipsoid, column_bounds, constrained_fit, physical_margin
 
 
 def _check_constraints(constraints, p: int) -> PhysicalConstraints:
@@ -48,42 +43,6 @@ def _check_constraints(constraints, p: int) -> PhysicalConstraints:
         raise InputError(f"the constraints are on {constraints.n_params} parameters but W has {p} columns; take "
                          "them from the same model.")
     return constraints
-
-
-def constrained_fit(W, y, constraints: PhysicalConstraints) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
-    """argmin |y - W theta| over physically consistent theta: (theta, x, active constraint labels).
-
-    Solved as min t s.t. |R D u - Q^T y| <= t (W = Q R, theta = D u with D the inverse column norms
-    of W: a p-row problem whatever N), plus the constraints in u (lifted: theta = K x, x = scale w).
-    """
-    W, y = as_regression(W, y)
-    p = W.shape[1]
-    constraints = _check_constraints(constraints, p)
-    Q, R = np.linalg.qr(W)
-    b = Q.T @ y
-    cn = np.linalg.norm(W, axis=0)
-    D = 1.0 / np.where(cn > 0, cn, 1.0)
-    V = _variables(constraints, np.zeros(p), D)                 # theta = D (T v + t0)
-    n = V.n
-    A = R @ (D[:, None] * V.T)
-    a = R @ (D * V.t0) - b
-    size = max(float(np.linalg.norm(b)), 1e-300)
-    prob = ConicProblem(n + 1, what="physically consistent least squares")
-    prob.add_soc(np.hstack([A, np.zeros((p, 1))]) / size, a / size, np.eye(n + 1)[n], 0.0)
-    cons_v = V.cons.in_coordinates(np.zeros(n), np.hstack([np.eye(n), np.zeros((n, 1))]))
-    prob.add_constraints(cons_v)
-    cost = np.zeros(n + 1)
-    cost[n] = 1.0
-    try:
-        r = prob.minimize_many(cost[None, :])
-    except InfeasibleProblem:
-        raise InfeasibleDataError("the physical constraints admit no parameter vector at all; check them "
-                                  "(e.g. contradictory CAD bounds).") from None
-    v = r.points[0, :n]
-    theta = D * (V.T @ v + V.t0)
-    viol = V.cons.violations(v)[0]
-    active = tuple(lab for lab, s in zip(V.cons.labels, viol, strict=True) if s > -ACTIVE_TOL)
-    return theta, V.x(v[None, :])[0], active
 
 
 def physical_least_squares(W, y, constraints: PhysicalConstraints, groups=None, level: float = 0.95,

@@ -30,8 +30,13 @@ SolverError. Without a lift the bounds are also *certified from outside*: the La
 :mod:`boundid.sets._conic` over P's LP box, computed from the solver's multipliers, is a proven
 lower bound of each minimum (upper bound of each maximum); ``lo``/``hi`` are those proven values
 and the gap to the attained ones must stay below GAP_TOL of the half-width. With a lift the
-unidentifiable standard parameters are unbounded, so no box holds them and the bounds are the
-attained values of verified points, optimal to the solver's tolerance (1e-8), not proven.
+standard parameters the data cannot see are unbounded (a heavy body on the first joint's axis
+changes no torque), so no box holds them: the bounds are the attained values of verified points,
+optimal to the solver's tolerance (1e-8 relative), not proven; the interior-point iterates drift
+along those directions, so the point tolerance is PRIMAL_TOL x max(1, |v|_inf) there. A bound of
+the projection may also be reached only in the limit of such a body growing without end (the
+projection of a closed set need not be closed): the solver then returns a point close to it
+(measured on the 2-link URDF: within 1e-5 of the half-width of the all-strips cvxpy optimum).
 """
 
 from __future__ import annotations
@@ -42,7 +47,7 @@ from dataclasses import dataclass, field
 import cvxpy as cp
 import numpy as np
 
-from boundid._validation import as_float_array, as_vector
+from boundid._validation import as_float_array, as_regression, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
 from boundid.sets._conic import ConicProblem, InfeasibleProblem, Pool
 from boundid.sets._conic import _solve as _solve_conic
@@ -54,6 +59,9 @@ from boundid.sets.polytope import Bounds, Polytope
 PRIMAL_TOL = 1e-6
 #: largest accepted gap between the proven (dual) and the attained bound, in half-widths
 GAP_TOL = 1e-4
+#: a constraint counts as active at a constrained least-squares solution when its violation (a
+#: distance in the solver's column-scaled coordinates) exceeds -ACTIVE_TOL
+ACTIVE_TOL = 1e-6
 #: the plain LP box added to the conic programs is widened by this (in its half-widths)
 _BOX_MARGIN = 1e-7
 _EPS = np.finfo(float).eps
@@ -641,6 +649,44 @@ def physical_margin(constraints: PhysicalConstraints, theta) -> tuple[float, np.
         raise SolverError("physical margin: no standard parameters x give K x = theta; theta is not in the "
                           "range of the lift (a wrong base-parameter vector?).") from None
     return float(s.value), dx * w.value
+
+
+def constrained_fit(W, y, constraints: PhysicalConstraints) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """argmin |y - W theta| over physically consistent theta: (theta, x, active constraint labels).
+
+    Solved as min t s.t. |R D u - Q^T y| <= t (W = Q R, theta = D u with D the inverse column norms
+    of W: a p-row problem whatever N), plus the constraints in u (lifted: theta = K x, x = scale w).
+    """
+    W, y = as_regression(W, y)
+    p = W.shape[1]
+    if not isinstance(constraints, PhysicalConstraints) or constraints.n_params != p:
+        raise InputError(f"constraints must be a PhysicalConstraints on the {p} parameters of W (e.g. "
+                         "model.physical_constraints()).")
+    Q, R = np.linalg.qr(W)
+    b = Q.T @ y
+    cn = np.linalg.norm(W, axis=0)
+    D = 1.0 / np.where(cn > 0, cn, 1.0)
+    V = _variables(constraints, np.zeros(p), D)                 # theta = D (T v + t0)
+    n = V.n
+    A = R @ (D[:, None] * V.T)
+    a = R @ (D * V.t0) - b
+    size = max(float(np.linalg.norm(b)), 1e-300)
+    prob = ConicProblem(n + 1, what="physically consistent least squares")
+    prob.add_soc(np.hstack([A, np.zeros((p, 1))]) / size, a / size, np.eye(n + 1)[n], 0.0)
+    cons_v = V.cons.in_coordinates(np.zeros(n), np.hstack([np.eye(n), np.zeros((n, 1))]))
+    prob.add_constraints(cons_v)
+    cost = np.zeros(n + 1)
+    cost[n] = 1.0
+    try:
+        r = prob.minimize_many(cost[None, :])
+    except InfeasibleProblem:
+        raise InfeasibleDataError("the physical constraints admit no parameter vector at all; check them "
+                                  "(e.g. contradictory CAD bounds).") from None
+    v = r.points[0, :n]
+    theta = D * (V.T @ v + V.t0)
+    viol = V.cons.violations(v)[0]
+    active = tuple(lab for lab, s in zip(V.cons.labels, viol, strict=True) if s > -ACTIVE_TOL)
+    return theta, V.x(v[None, :])[0], active
 
 
 # ---------------------------------------------------------------------- ellipsoid ∩ physics
