@@ -55,7 +55,13 @@ figure.fig img { max-width: 100%; height: auto; display: block; border: 1px soli
 figcaption { font-size: .9rem; color: var(--muted); margin: .35rem 0; }
 figcaption b { color: var(--fg); }
 .files { font-size: .8rem; margin-left: .5rem; }
-.scroll { overflow-x: auto; }
+/* a table wider than its box scrolls sideways; shadows at the edges that have more columns behind
+   them say so (the "local" white covers hide each shadow once that edge is reached) */
+.scroll { overflow-x: auto; background:
+  linear-gradient(to right, #fff 30%, rgba(255, 255, 255, 0)) left / 2.5rem 100% no-repeat local,
+  linear-gradient(to left, #fff 30%, rgba(255, 255, 255, 0)) right / 2.5rem 100% no-repeat local,
+  radial-gradient(farthest-side at 0 50%, rgba(0, 0, 0, .28), transparent) left / .9rem 100% no-repeat scroll,
+  radial-gradient(farthest-side at 100% 50%, rgba(0, 0, 0, .28), transparent) right / .9rem 100% no-repeat scroll; }
 table.data { border-collapse: collapse; font-size: .88rem; font-variant-numeric: tabular-nums; }
 table.data th, table.data td { padding: .28rem .65rem; border-bottom: 1px solid var(--line); text-align: right;
                                white-space: nowrap; }
@@ -138,6 +144,9 @@ class Page:
     separated by blank lines);  setup : {key: value} shown as a definition list under it (robot,
     samples, noise level, ...);  dpi : PNG resolution of figures.
     """
+
+    css = _CSS  # subclasses may add rules (the teaching handouts' stepper) or
+    csp = _CSP  # allow one script by its hash
 
     def __init__(self, title: str, description: str = "", *, setup: Mapping[str, object] | None = None,
                  dpi: int = DPI, max_bytes: int = MAX_PAGE_BYTES):
@@ -239,8 +248,8 @@ class Page:
             else:
                 parts.append(f'<section id="{s.anchor}">\n<h2>{html.escape(s.title)}</h2>\n{inner}\n</section>')
         first_line = " ".join(self.description.split())[:300]
-        return _PAGE.substitute(csp=_CSP, meta_description=html.escape(first_line), version=__version__,
-                                title=html.escape(self.title), css=_CSS, body="\n".join(p for p in parts if p))
+        return _PAGE.substitute(csp=self.csp, meta_description=html.escape(first_line), version=__version__,
+                                title=html.escape(self.title), css=self.css, body="\n".join(p for p in parts if p))
 
     def to_markdown(self) -> str:
         """The page as Markdown (``summary.md``): text, tables via tabulate, figures as links."""
