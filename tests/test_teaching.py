@@ -188,8 +188,8 @@ def _claims_lesson4(page: Path):
 
 def _claims_lesson5(page: Path):
     md, models = _md(page), _csv(page, "models", index_col=0)
-    for head, col in (("Inertia and gravity terms \\(th1..th5\\): mean absolute deviation ", "mean abs dev th1..th5 [%]"),
-                      ("Friction terms: ", "mean abs dev friction [%]")):
+    inertia = "Inertia and gravity terms \\(th1..th5\\): mean absolute deviation "
+    for head, col in ((inertia, "mean abs dev th1..th5 [%]"), ("Friction terms: ", "mean abs dev friction [%]")):
         m = re.search(head + r"(.+?); the (.+?) model is the worst", md)
         stated = dict((name, float(v)) for name, v in re.findall(r"([a-z ]+?) ([\d.]+) %(?:, )?", m.group(1)))
         assert set(stated) == set(models.index)
@@ -274,7 +274,7 @@ def test_handout_stepper_key_points_and_instructor_key(tmp_path):
     text = out.read_text()
     pngs = sorted((tmp_path / "figures").glob("anim-*.png"))
     assert [p.name for p in pngs] == ["anim-01.png", "anim-02.png", "anim-03.png"]
-    for k, p in enumerate(pngs):
+    for p in pngs:
         assert base64.b64encode(p.read_bytes()).decode() in text
         assert Image.open(p).size == (800, 400)  # figsize x dpi 100, identical for every frame
     assert text.count(" hidden>") == 2 and text.index('class="keypoints"') < text.index("<h2>")

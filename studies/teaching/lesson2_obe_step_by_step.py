@@ -271,7 +271,8 @@ page.section("Order dependence",
              "recursion is greedy. The polygon is the same. "
              + ("Every order keeps the truth inside." if order["truth inside"].all() else
                 "In some order the truth is OUTSIDE: a guarantee failed."))
-page.figure(fig_o, "Final OBE ellipses for the measured order and shuffled orders (equal axis scales).", name="order-ellipses")
+page.figure(fig_o, "Final OBE ellipses for the measured order and shuffled orders (equal axis scales).",
+            name="order-ellipses")
 page.table(order, "Final ln area and parameter intervals by order of the data.", name="order")
 page.exercises([
     ("In the step table, compare 'ln area OBE' with 'ln area SDP optimum' on the update steps. What does the "
