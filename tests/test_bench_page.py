@@ -81,15 +81,16 @@ def test_page_marks_each_goal_from_a_synthetic_csv(tmp_path):
     text = page.read_text()
     cells = _Cells()
     cells.feed(text)
-    verdict = {row[1]: row[2] for row in cells.rows}
+    verdict = {row[0].split(": ", 1)[1]: row[1] for row in cells.rows}
     assert verdict["fast enough"] == "met" and verdict["too slow"] == "missed"
     assert verdict["rate"] == "met on CPU time only"
     assert verdict["empty cell"].startswith("not measured: the benchmark wrote no value in 'rate'")
     assert verdict["no column"].startswith("not measured: toy.csv has no column 'memory_gb'")
     assert verdict["no row"].startswith("not measured: toy.csv has no row with case = c")
-    by_goal = {row[1]: row for row in cells.rows}
-    assert by_goal["fast enough"][3] == "0.5 s" and by_goal["fast enough"][5] == "N = 100,000"
-    assert by_goal["fast enough"][6] == "2.50" and by_goal["too slow"][6] == "0.25"
+    by_goal = {row[0].split(": ", 1)[1]: row for row in cells.rows}
+    assert by_goal["fast enough"][2] == "0.5 s" and by_goal["fast enough"][4] == "N = 100,000"
+    assert by_goal["fast enough"][5] == "2.50" and by_goal["too slow"][5] == "0.25"
+    assert by_goal["rate"][2] == "4 M/sCPU time: 6 M/s"  # two lines in the cell
     assert "6 goals: 1 met, 1 met on CPU time only, 1 missed, 3 not measured." in text
     assert not re.search(r"\bnan\b", text, re.I), "an empty number must read 'not measured', never nan"
     m = machine()

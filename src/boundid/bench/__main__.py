@@ -38,7 +38,7 @@ def run_topic(topic: str, out: Path, quick: bool) -> str:
     df.to_csv(out / f"{topic}.csv", index=False)
     (out / f"{topic}.json").write_text(json.dumps(meta, indent=2), encoding="utf-8")
     v = meta["versions"]
-    verdicts = [judge(g, df, topic) for g in getattr(mod, "GOAL_CHECKS", ())]
+    verdicts = [judge(g, df, topic, meta["load_avg"][0]) for g in getattr(mod, "GOAL_CHECKS", ())]
     md = [f"# Benchmark: {topic}", "", mod.GOALS.strip(), "",
           f"Machine: {meta['cpu']}, {meta['cores']} cores, load average {meta['load_avg'][0]:.2f} at the start; "
           f"Python {v['python']}, numpy {v['numpy']}, numba {v['numba']}, highspy {v['highspy']}, clarabel "

@@ -94,14 +94,15 @@ def select(df: pd.DataFrame, where: Mapping[str, str]) -> pd.DataFrame:
     return df[mask]
 
 
-def judge(goal: Goal, df: pd.DataFrame, topic: str) -> Verdict:
-    """The verdict of ``goal`` on the rows ``df`` of ``<topic>.csv``."""
+def judge(goal: Goal, df: pd.DataFrame, topic: str, load: float | None = None) -> Verdict:
+    """The verdict of ``goal`` on the rows ``df`` of ``<topic>.csv``; ``load``: the load average to
+    show when the row did not record its own (e.g. the machine's at the start of the benchmark)."""
     rows = select(df, goal.where)
     which = ", ".join(f"{c} = {p}" for c, p in goal.where.items())
     if rows.empty:
         return Verdict(goal, "not measured", reason=f"{topic}.csv has no row with {which} (the case did not run)")
     row = rows.iloc[0].to_dict()
-    load = next((_number(row[c]) for c in LOAD_COLUMNS if c in row and _number(row[c]) is not None), None)
+    load = next((_number(row[c]) for c in LOAD_COLUMNS if c in row and _number(row[c]) is not None), load)
     try:
         size = goal.size.format(**row)
     except (KeyError, ValueError):

@@ -14,6 +14,7 @@ import html
 import importlib
 import json
 import math
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -32,13 +33,15 @@ _CSS = """
              border-radius: 0 6px 6px 0; }
 td.met { color: #006d4e; font-weight: 600; } td.missed { color: #b33c00; font-weight: 700; }
 td.cpu { color: #8a5a00; font-weight: 600; } td.none { color: var(--muted); font-style: italic; }
-table.data td.text { text-align: left; white-space: normal; min-width: 8rem; }
+table.data td.met, table.data td.missed, table.data td.cpu { text-align: left; }
+table.data td.text { text-align: left; white-space: normal; min-width: 9rem; }
+table.data td:first-child.text { min-width: 15rem; }
 table.data thead th { text-align: left; }
 .cpu-time { font-size: .8rem; color: var(--muted); }
 details.raw > summary { cursor: pointer; color: var(--muted); font-weight: 600; margin: .6rem 0; }
 p.machine { font-size: .9rem; color: var(--muted); }
-pre.goals { white-space: pre-wrap; font: inherit; font-size: .92rem; background: var(--bg-alt); padding: .6rem .9rem;
-            border-radius: 6px; max-width: 80ch; }
+div.goals { font-size: .92rem; background: var(--bg-alt); padding: .3rem .9rem; border-radius: 6px; }
+div.goals li { margin: .2rem 0; max-width: 80ch; }
 """
 
 _PAGE = """<!DOCTYPE html>
@@ -96,7 +99,7 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[tuple[str, str]]]) -> 
     head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
     body = "".join("<tr>" + "".join(f'<td class="{c}">{t}</td>' if c else f"<td>{t}</td>" for t, c in row)
                    + "</tr>" for row in rows)
-    return (f'<div class="scroll"><table class="data keyed"><thead><tr>{head}</tr></thead>'
+    return (f'<div class="scroll"><table class="data"><thead><tr>{head}</tr></thead>'
             f"<tbody>{body}</tbody></table></div>")
 
 
@@ -115,14 +118,33 @@ def _machine_text(meta: Mapping | None, topic: str) -> str:
                        f"{v.get('python', '?')}, {libs}.")
 
 
+def _text_html(text: str) -> str:
+    """A benchmark's GOALS text as HTML: blank lines separate blocks; a block of "- " or "* "
+    lines is a list (indented lines continue an item), any other block a paragraph."""
+    out = []
+    for block in re.split(r"\n\s*\n", text.strip()):
+        lines = block.splitlines()
+        if lines and re.match(r"\s*[-*] ", lines[0]):
+            items = []
+            for line in lines:
+                if re.match(r"\s*[-*] ", line):
+                    items.append(re.sub(r"^\s*[-*] ", "", line))
+                else:
+                    items[-1] += " " + line.strip()
+            out.append("<ul>" + "".join(f"<li>{html.escape(' '.join(i.split()))}</li>" for i in items) + "</ul>")
+        else:
+            out.append(f"<p>{html.escape(' '.join(block.split()))}</p>")
+    return "".join(out)
+
+
 def verdict_row(topic: str, v: Verdict) -> list[tuple[str, str]]:
-    """benchmark, goal, verdict, measured, target, case, load: the cells of one goal (escaped HTML)."""
+    """goal, verdict, measured, target, case, load: the cells of one goal (escaped HTML)."""
     g = v.goal
     measured = html.escape(_value(v.value, g.unit)) or "–"
     if v.cpu_value is not None:
         measured += f'<br><span class="cpu-time">CPU time: {html.escape(_value(v.cpu_value, g.unit))}</span>'
     status = v.status if v.status != NOT_MEASURED else f"{NOT_MEASURED}: {v.reason}"
-    return [(html.escape(topic), ""), (html.escape(g.name), "text"),
+    return [(f"<b>{html.escape(topic)}</b>: {html.escape(g.name)}", "text"),
             (html.escape(status), _STATUS_CLASS[v.status] + (" text" if v.status == NOT_MEASURED else "")),
             (measured, ""), (html.escape(f"{g.op} {_value(g.target, g.unit)}"), ""), (html.escape(v.size), "text"),
             (f"{v.load:.2f}" if v.load is not None else "–", "")]
@@ -163,7 +185,8 @@ def write_page(out: str | Path, goals: Mapping[str, Sequence[Goal]] | None = Non
         mod = topic_module(topic)
         checks = goals.get(topic, ()) if goals is not None else getattr(mod, "GOAL_CHECKS", ())
         text = descriptions.get(topic, "") if descriptions is not None else getattr(mod, "GOALS", "")
-        verdicts = [judge(g, df, topic) for g in checks]
+        start_load = (meta or {}).get("load_avg", [None])[0]
+        verdicts = [judge(g, df, topic, start_load) for g in checks]
         for v in verdicts:
             counts[v.status] += 1
             all_rows.append(verdict_row(topic, v))
@@ -183,7 +206,7 @@ def write_page(out: str | Path, goals: Mapping[str, Sequence[Goal]] | None = Non
             f"<p><b>{html.escape(n_goals)}.</b> Files: <a href=\"{html.escape(topic)}.csv\">CSV</a> · "
             f"<a href=\"{html.escape(topic)}.md\">Markdown</a></p>"
             f'<p class="machine">{_machine_text(meta, topic)}</p>'
-            + (f'<pre class="goals">{html.escape(text.strip())}</pre>' if text.strip() else "")
+            + (f'<div class="goals">{_text_html(text)}</div>' if text.strip() else "")
             + f'<details class="raw"><summary>All {len(df)} rows of {html.escape(topic)}.csv ("{NOT_MEASURED}": '
               "the case has no such value, e.g. no reference ran for it)</summary>"
               f"{raw}</details></section>")
@@ -192,11 +215,12 @@ def write_page(out: str | Path, goals: Mapping[str, Sequence[Goal]] | None = Non
     lead = (f"<p><b>{total} goals: {html.escape(summary)}.</b></p>" if total else "<p>No goals found.</p>")
     if missed:
         lead += "<ul>" + "".join(f"<li>{html.escape(m)}</li>" for m in missed) + "</ul>"
-    lead += ("<p>Timings depend on the machine's load: each verdict shows the 1-minute load average when its case "
-             "ran (the machine has the cores named under each benchmark, shared with other jobs).</p>")
+    lead += ("<p>Timings depend on the machine's load: the last column is the 1-minute load average when the case "
+             "ran (or, if the benchmark did not record it, when the benchmark started); the machine's cores are "
+             "named under each benchmark.</p>")
     nav = ('<nav><a href="../index.html">&larr; all reports</a><a href="#goals">Goals</a>'
            + "".join(f'<a href="#{html.escape(t)}">{html.escape(t)}</a>' for t in topics) + "</nav>")
-    goals_table = _table(["benchmark", "goal", "verdict", "measured", "target", "case", "load (1 min)"], all_rows)
+    goals_table = _table(["goal", "verdict", "measured", "target", "case", "load"], all_rows)
     body = (nav + f'<div class="keypoints">{lead}</div>'
             + f'<section id="goals"><h2>Goals</h2>{goals_table}</section>' + "".join(sections))
     page = _PAGE.format(csp=Page.csp, css=Page.css + _CSS, version=__version__, body=body,
