@@ -73,5 +73,6 @@ def test_a_stepper_steps_and_a_blocked_or_small_one_fails(tmp_path):
     out.write_text(text.replace("; script-src 'sha256-", "; script-src 'sha256-X"))  # the CSP now blocks it
     problems = _check(tmp_path, out)
     assert any("Content Security Policy" in p for p in problems) and any("does not step" in p for p in problems)
+    assert any("does not play" in p for p in problems)
     small = Handout("h").section("s", "text").stepper(_frames(6.0), ["a", "b", "c"], "frames", name="f")
     assert any("under 800 px" in p for p in _check(tmp_path, small, "small.html"))

@@ -168,7 +168,7 @@ def _claims_lesson3(page: Path):
         assert stated == rows["final status"].value_counts().to_dict()
     fac = forms[forms.index.str.startswith("factorized")]
     assert ("Factorized form: no breakdown on any seed" in md) == bool((fac["breakdowns"] == 0).all())
-    inside = bool((fac["truth Mahalanobis² (own representation)"] <= 1).all())
+    inside = bool((fac["truth Mahalanobis²"] <= 1).all())
     assert (("the truth is inside its own set on every seed" in md) == inside)
 
 

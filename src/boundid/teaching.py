@@ -33,6 +33,7 @@ from PIL import Image
 from boundid.errors import InputError, StudyError
 from boundid.report.figure_check import figure_problems
 from boundid.report.html import Page, _paragraphs, _slug, _Table, write_index
+from boundid.report.output import check_out_dir, replace_folder
 from boundid.resources import find_folder
 
 OUT_ENV, FAST_ENV = "BOUNDID_TEACH_OUT", "BOUNDID_TEACH_FAST"
@@ -405,15 +406,19 @@ def lessons(directory: str | Path | None = None) -> list[Path]:
 def run_lesson(script: str | Path, out_dir: str | Path, fast: bool = False, timeout: float = 600.0) -> Path:
     """Run one lesson script with ``python`` (a fresh interpreter); returns its handout page.
 
-    Raises :class:`StudyError` with the end of the script's stderr when it fails or writes no page.
+    The handout is written into a fresh folder that replaces ``out_dir`` as a whole once the lesson
+    succeeded (:func:`boundid.report.output.replace_folder`: no file of an earlier run is left
+    behind, and a failed run leaves the previous handout as it was). Raises :class:`StudyError`
+    with the end of the script's stderr when it fails or writes no page.
     """
     script, out_dir = Path(script), Path(out_dir)
-    env = {**os.environ, OUT_ENV: str(out_dir), FAST_ENV: "1" if fast else "0", "MPLBACKEND": "Agg"}
-    res = subprocess.run([sys.executable, str(script)], env=env, capture_output=True, text=True, timeout=timeout)
-    page = out_dir / "index.html"
-    if res.returncode != 0 or not page.is_file():
-        raise StudyError(f"lesson {script.name} failed (exit {res.returncode}):\n{res.stderr[-3000:]}")
-    return page
+    with replace_folder(out_dir) as tmp:
+        env = {**os.environ, OUT_ENV: str(tmp), FAST_ENV: "1" if fast else "0", "MPLBACKEND": "Agg"}
+        res = subprocess.run([sys.executable, str(script)], env=env, capture_output=True, text=True,
+                             timeout=timeout)
+        if res.returncode != 0 or not (tmp / "index.html").is_file():
+            raise StudyError(f"lesson {script.name} failed (exit {res.returncode}):\n{res.stderr[-3000:]}")
+    return out_dir / "index.html"
 
 
 def run_lessons(directory: str | Path | None = None, out: str | Path = DEFAULT_OUT, fast: bool = False,
@@ -424,6 +429,7 @@ def run_lessons(directory: str | Path | None = None, out: str | Path = DEFAULT_O
     scripts = [s for s in found if not only or any(o in s.stem for o in only)]
     if not scripts:
         raise InputError(f"no lesson matches {only}; lessons: {[s.stem for s in found]}.")
+    check_out_dir(out, tuple(s.stem for s in scripts))
     pages = [run_lesson(s, Path(out) / s.stem, fast) for s in scripts]
     write_index(out, None, title="boundid teaching kit",
                 description="Handouts of the boundid lessons: feasible sets, OBE, the factorized form, "

@@ -220,6 +220,12 @@ fig_o.legend(*ax.get_legend_handles_labels(), loc="outside right upper", fontsiz
 vol, tr = crit.loc["volume"], crit.loc["trace"]
 smaller_area = "volume" if vol["ln area"] < tr["ln area"] else "trace"
 smaller_trace = "volume" if vol["trace of shape"] < tr["trace of shape"] else "trace"
+if smaller_area == smaller_trace:
+    rules_text = (f"the {smaller_area} rule ends with both the smaller area and the smaller trace: each rule is "
+                  "optimal one step at a time, which does not make its own final measure the smallest")
+else:
+    rules_text = (f"the {smaller_area} rule ends with the smaller area and the {smaller_trace} rule with the "
+                  "smaller trace")
 all_inside = bool(table["truth inside"].all())
 la = order["ln area"]
 page = Handout("Lesson 2: OBE step by step",
@@ -241,26 +247,27 @@ page.key_points([
     f"The OBE's ln area differs from the SDP's one-step optimum by up to {sdp_gap:.2g}.",
     "The truth stayed inside every ellipse of the recursion." if all_inside else
     f"The truth left the ellipse at strip {table.index[~table['truth inside']][0]}: a guarantee failed.",
-    f"The final ellipses are wider than the exact bounds: volume rule {vol['width / LP width, J']:.2f}x (J) and "
-    f"{vol['width / LP width, mgl']:.2f}x (mgl) the LP widths. The order of the strips matters: "
+    f"The final ellipse (volume rule) is {vol['width / LP width, J']:.2f}x (J) and "
+    f"{vol['width / LP width, mgl']:.2f}x (mgl) as wide as the exact LP bounds. The order of the strips matters: "
     f"{len(perms)} orders give ln areas from {la.min():.2f} to {la.max():.2f}.",
 ])
 page.section("The recursion, strip by strip",
-             "Each frame shows one measurement, on fixed axes: the whole prior on the left, a zoom on the final "
-             "ellipse on the right (dotted square). The ellipse shrinks only when the strip cuts it enough for the "
-             "volume-optimal weight lambda to be positive; otherwise the strip is skipped at the cost of one test. "
-             "A strip that misses the ellipse entirely contradicts the bounds: it is flagged as an outlier and "
-             "ignored, which is only possible because the ellipse is guaranteed to contain the truth.")
+             "One frame per measurement, on fixed axes: the whole prior on the left, a zoom on the final ellipse on "
+             "the right (dotted square).")
 page.stepper(frames, frame_labels, "OBE over the exact polygon (grey), strip by strip; dashed: previous ellipse, "
              "solid: new ellipse, band: the current strip.", name="obe-steps")
+page.text("The ellipse shrinks only when the strip cuts it enough for the volume-optimal weight lambda to be "
+          "positive; otherwise the strip is skipped at the cost of one test. A strip that misses the ellipse "
+          "entirely contradicts the bounds: it is flagged as an outlier and ignored, which is only possible because "
+          "the ellipse is guaranteed to contain the truth.")
 page.table(table, "Every step: event, weight lambda, ln area before and after, the exact one-step optimum "
                   "(SDP; – when the strip misses the ellipse) and whether the truth is inside.", name="steps")
 page.section("Volume versus trace",
              f"Both rules keep the guarantee (contains P: volume {'yes' if vol['contains P'] else 'NO'}, trace "
              f"{'yes' if tr['contains P'] else 'NO'}). The volume rule minimises the area of each new ellipse, the "
-             f"trace rule the sum of its squared semi-axes. Here the {smaller_area} rule ends with the smaller area "
-             f"(ln area {vol['ln area']:.2f} against {tr['ln area']:.2f}) and the {smaller_trace} rule with the "
-             f"smaller trace ({fmt(vol['trace of shape'])} against {fmt(tr['trace of shape'])}).")
+             f"trace rule the sum of its squared semi-axes. Here {rules_text} (volume against trace rule: ln area "
+             f"{vol['ln area']:.2f} against {tr['ln area']:.2f}, trace {fmt(vol['trace of shape'])} against "
+             f"{fmt(tr['trace of shape'])}).")
 page.figure(fig_c, "Final ellipses of the two rules over the exact polygon (equal axis scales), and ln area against "
                    "strips processed.", name="criteria-ellipses")
 page.table(crit, "Volume and trace rules against the exact polygon (width ratio 1 = the exact LP bound).",
@@ -289,7 +296,7 @@ page.exercises([
         if skip_cut.size else "None had a polygon before it to compare with.")),
     ("From the criteria table: which rule gives the smaller area, and which the smaller trace? Is either ellipse "
      "close to the exact bounds (width ratios)?",
-     f"The {smaller_area} rule gives the smaller area and the {smaller_trace} rule the smaller trace. Width ratios: "
+     f"Here {rules_text}. Width ratios: "
      f"volume {vol['width / LP width, J']:.2f} (J), {vol['width / LP width, mgl']:.2f} (mgl); trace "
      f"{tr['width / LP width, J']:.2f}, {tr['width / LP width, mgl']:.2f}: both are wider than the exact bounds "
      "(ratio 1)."),

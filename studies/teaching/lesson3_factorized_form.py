@@ -21,6 +21,7 @@ from matplotlib.lines import Line2D
 
 from boundid.errors import SolverError
 from boundid.estimators import OBE
+from boundid.estimators.obe import VOUCH_MAX
 from boundid.teaching import Handout, fast_mode, fmt, output_dir, series_style
 
 FAST = fast_mode()
@@ -106,8 +107,8 @@ for seed in SEEDS:
                      "breakdowns": obe.n_breakdowns, "final status": kind,
                      "not guaranteed from row": not_ok[0] if not_ok else np.nan,
                      "rounding bound": est.info["error_bound"] if est is not None else np.nan,
-                     "truth Mahalanobis² (own representation)": trace[-1][1],
-                     "truth in the Estimate's set": bool(est.contains(theta)) if est is not None else False})
+                     "truth Mahalanobis²": trace[-1][1],
+                     "truth in the Estimate": bool(est.contains(theta)) if est is not None else False})
 table = pd.DataFrame(rows).set_index("run")
 print(table)
 
@@ -152,7 +153,7 @@ def status_sentence(df):
     return ", ".join(parts)
 
 
-fac_inside = bool((fac["truth Mahalanobis² (own representation)"] <= 1.0).all())
+fac_inside = bool((fac["truth Mahalanobis²"] <= 1.0).all())
 std_broken = int((std["breakdowns"] > 0).sum())
 fac_broken = int((fac["breakdowns"] > 0).sum())
 one_reason = next((reasons[k] for k in reasons if k[1] == "factorized"), None)
@@ -181,7 +182,7 @@ page.key_points([
     f"{status_sentence(std)}.",
     f"Factorized form: {'no breakdown on any seed' if fac_broken == 0 else f'breakdowns on {fac_broken} seeds'}; the "
     f"truth is {'inside' if fac_inside else 'NOT inside'} its own set on every seed (Mahalanobis² at most "
-    f"{fmt(fac['truth Mahalanobis² (own representation)'].max())}); final status {status_sentence(fac)}"
+    f"{fmt(fac['truth Mahalanobis²'].max())}); final status {status_sentence(fac)}"
     + (": it keeps a sound set but says it cannot write it as an accurate explicit ellipsoid." if
        count(fac, "unverified") else "."),
 ])
@@ -194,7 +195,8 @@ page.section("When they are not",
              "The standard form counts a breakdown each time rounding makes w^T M^-1 w <= 0 (or a diagonal entry of "
              "M^-1 <= 0) and skips that row; its state is then provably corrupt and building the Estimate raises "
              "SolverError. Short of that, both forms keep a first-order bound on the rounding error of their set "
-             "('rounding bound' below, in Mahalanobis² units); above 1e-4 the Estimate is 'unverified'. The truth's "
+             f"('rounding bound' below, in Mahalanobis² units); above {VOUCH_MAX:g} the Estimate is 'unverified'. The "
+             "truth's "
              "Mahalanobis² is computed in each estimator's own representation (the factor X, or M^-1): it is what "
              "the recursion itself holds, whether or not an explicit ellipsoid can be written from it.")
 if one_reason:
@@ -210,7 +212,8 @@ page.table(table.drop(columns=["form", "seed", f"cond(first {N_ILL} rows)", "con
            "definite) and whether the explicit ellipsoid of the Estimate contains the truth.", name="forms")
 page.figure(fig, "The truth's Mahalanobis² in each estimator's own representation as the rows arrive (<= 1: "
                  "inside; a gap: the representation is no longer positive definite). Crosses: rows where M^-1 "
-                 "proved indefinite. The dotted line marks the start of the nearly collinear rows.",
+                 "proved indefinite (drawn at 1 where the Mahalanobis² can no longer be computed). The dotted line "
+                 "marks the start of the nearly collinear rows.",
             name="mahalanobis")
 first_std_break = [next((t[0] for t in traces[(s, "standard")] if t[2] > 0), None) for s in SEEDS]
 broke_where = [w for w in first_std_break if w is not None]
@@ -226,15 +229,19 @@ page.exercises([
     ("The factorized form's Estimate may be 'unverified' although its own set contains the truth. What is the "
      "difference between the two statements?",
      f"Final status of the factorized form: {status_sentence(fac)}; the truth's Mahalanobis² in its own "
-     f"representation is at most {fmt(fac['truth Mahalanobis² (own representation)'].max())}. The recursion's set "
+     f"representation is at most {fmt(fac['truth Mahalanobis²'].max())}. The recursion's set "
      "(held as X and z) is sound; what cannot be vouched for is the explicit shape matrix sigma X^-1 X^-T written "
      "into the Estimate, because inverting a nearly singular X in double precision loses the small axes."),
     ("On the benign data the two forms differ by the relative amount given in the first section, far more than "
      "machine precision (2.2e-16) yet far less than the ellipsoid's size. Where can such differences come from "
      "in two recursions of 500 steps each?",
      f"The relative difference is {diff / scale:.1e}. Each step rounds differently in the two forms (a rank-one "
-     "downdate of M^-1 against a QR update of X), and the differences accumulate over the 500 steps; both stay "
-     f"within their own rounding bounds ({agree['standard'].info['error_bound']:.1e} and "
-     f"{agree['factorized'].info['error_bound']:.1e} in Mahalanobis²), so both are guaranteed."),
+     "downdate of M^-1 against a QR update of X), and the differences accumulate over the 500 steps. Each form "
+     f"also bounds its own rounding error: {agree['standard'].info['error_bound']:.1e} (standard) and "
+     f"{agree['factorized'].info['error_bound']:.1e} (factorized) in Mahalanobis² units, "
+     + (f"both far below the {VOUCH_MAX:g} above which an Estimate is unverified, so both are guaranteed." if
+        set(benign_kinds.values()) == {"guaranteed"} else
+        f"and the Estimates are {benign_kinds['standard']} (standard) and {benign_kinds['factorized']} "
+        "(factorized).")),
 ])
 print(page.write(output_dir("lesson3_factorized_form") / "index.html"))

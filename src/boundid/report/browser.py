@@ -14,7 +14,8 @@ records:
   :mod:`boundid.report.html` (a gradient background with ``background-attachment: local``) or a
   visible element marked ``data-scroll-cue``; and a page that scrolls sideways as a whole;
 * for a frame stepper (the teaching handouts), that its frames show at >= 800 px, one at a time,
-  and that the next/previous buttons and the arrow keys move the frame counter.
+  that the next/previous buttons and the arrow keys move the frame counter, and that "play"
+  advances it (virtual time: the timers run without waiting).
 
 It writes the result as JSON into a ``<pre id="boundid-check">`` element; Chromium's ``--dump-dom``
 prints the DOM and this module reads the verdict from it. Then it takes two screenshots of the
@@ -115,6 +116,18 @@ CHECK_SCRIPT = """<script>
     }
     return out;
   }
+  function play(then) {
+    /* the first stepper's play button: after 2.5 frame delays the counter must have moved 2 frames */
+    var s = document.querySelector(".stepper"), b = s && s.querySelector("[data-step=play]");
+    if (!b) { then([]); return; }
+    var delay = Number(s.getAttribute("data-delay")) || 900;
+    b.click();
+    setTimeout(function () {
+      var f = s.getAttribute("data-frame");
+      b.click();
+      then(f === "3" ? [] : ["stepper 1 does not play: after 2.5 frame delays it shows frame " + f + ", expected 3"]);
+    }, 2.5 * delay);
+  }
   var MIN = MIN_FRAME_PX;
   window.addEventListener("load", function () {
     var imgs = document.images, broken = [];
@@ -125,10 +138,13 @@ CHECK_SCRIPT = """<script>
       .filter(function (n) { return n.slice(0, 5) !== "data:"; });
     var result = {images: imgs.length, broken: broken, errors: errors, fetched: fetched, layout: tables(),
                   steppers: steppers(), height: document.documentElement.scrollHeight};
-    var out = document.createElement("pre");
-    out.id = "boundid-check";
-    out.textContent = JSON.stringify(result);
-    document.body.appendChild(out);
+    play(function (problems) {
+      result.steppers = result.steppers.concat(problems);
+      var out = document.createElement("pre");
+      out.id = "boundid-check";
+      out.textContent = JSON.stringify(result);
+      document.body.appendChild(out);
+    });
   });
 })();
 </script>""".replace("MIN_FRAME_PX", str(MIN_FRAME_PX))

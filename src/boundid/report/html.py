@@ -45,7 +45,7 @@ h1 { font-size: 1.7rem; margin: 0 0 .4rem; }
 h2 { font-size: 1.25rem; margin: 2.2rem 0 .6rem; padding-bottom: .25rem; border-bottom: 1px solid var(--line); }
 p { margin: .5rem 0; max-width: 75ch; }
 a { color: var(--accent); }
-nav { font-size: .9rem; margin: .8rem 0 1.2rem; color: var(--muted); }
+nav { font-size: .9rem; margin: .8rem 0 1.2rem; color: var(--muted); display: flex; flex-wrap: wrap; row-gap: .3rem; }
 nav a { margin-right: .9rem; white-space: nowrap; }
 dl.setup { display: grid; grid-template-columns: max-content auto; gap: .15rem 1.2rem; margin: 1rem 0;
            padding: .7rem 1rem; background: var(--bg-alt); border-radius: 6px; font-size: .92rem; }
@@ -101,6 +101,17 @@ $body
 def _paragraphs(text: str) -> str:
     """Plain text -> escaped <p> blocks (blank lines separate paragraphs)."""
     return "\n".join(f"<p>{html.escape(' '.join(p.split()))}</p>" for p in re.split(r"\n\s*\n", text) if p.strip())
+
+
+def _summary(text: str, limit: int = 300) -> str:
+    """``text`` on one line, at most ``limit`` characters, cut after a sentence (else a word), never
+    inside a word: the page's meta description, which the index shows under its link."""
+    text = " ".join(text.split())
+    if len(text) <= limit:
+        return text
+    head = text[:limit + 1]
+    end = head.rfind(". ")
+    return head[:end + 1] if end > limit // 3 else head[:head.rfind(" ")].rstrip(",;:") + " …"
 
 
 def _slug(text: str, taken: set[str]) -> str:
@@ -247,7 +258,7 @@ class Page:
                 parts.append(inner)
             else:
                 parts.append(f'<section id="{s.anchor}">\n<h2>{html.escape(s.title)}</h2>\n{inner}\n</section>')
-        first_line = " ".join(self.description.split())[:300]
+        first_line = _summary(self.description)
         return _PAGE.substitute(csp=self.csp, meta_description=html.escape(first_line), version=__version__,
                                 title=html.escape(self.title), css=self.css, body="\n".join(p for p in parts if p))
 
