@@ -229,3 +229,127 @@ def test_support_point_is_a_maximiser():
         v, x = P.support_point(d)
         assert v == pytest.approx(np.max(V @ d), rel=1e-9, abs=1e-9)
         assert d @ x == pytest.approx(v, rel=1e-9, abs=1e-9) and P.contains(x, rtol=1e-8)
+
+
+def one_lp_per_side(W, y, e, box=None, halfspaces=None):
+    """The textbook redundancy removal, kept here only as the independent reference: sequential
+    elimination over every side of every strip in index order (upper, then lower side), each
+    tested by one scipy linprog (HiGHS) with that side removed: kept if g^T theta can then exceed
+    its bound by more than 1e-8 (1 + |bound|) (or without limit). Rows are w/e normalised to unit
+    norm. Returns the strips with a kept side."""
+    A, c = W / e[:, None], y / e
+    nrm = np.linalg.norm(A, axis=1)
+    G = np.empty((2 * len(y), W.shape[1]))
+    G[0::2], G[1::2] = A / nrm[:, None], -A / nrm[:, None]
+    b = np.empty(2 * len(y))
+    b[0::2], b[1::2] = (c + 1) / nrm, (1 - c) / nrm
+    H = np.zeros((0, W.shape[1])) if halfspaces is None else np.asarray(halfspaces[0], dtype=float)
+    h = np.zeros(0) if halfspaces is None else np.asarray(halfspaces[1], dtype=float)
+    bounds = [(None, None)] * W.shape[1] if box is None else list(zip(*box, strict=True))
+    alive = np.ones(len(b), dtype=bool)
+    for i in range(len(b)):
+        others = alive.copy()
+        others[i] = False
+        res = linprog(-G[i], A_ub=np.vstack([G[others], H]), b_ub=np.concatenate([b[others], h]),
+                      bounds=bounds, method="highs")
+        assert res.status in (0, 3), res.message
+        alive[i] = res.status == 3 or -res.fun > b[i] + 1e-8 * (1 + abs(b[i]))
+    return np.unique(np.flatnonzero(alive) // 2)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_nonredundant_equals_one_lp_per_side(seed):
+    """nonredundant() (box screen, ray shooting, batched Clarkson test) returns exactly the
+    strips of the one-LP-per-side sequential elimination (scipy linprog, reference above), with
+    and without a prior box and halfspaces, duplicated strips included."""
+    rng = np.random.default_rng(100 + seed)
+    p, N = int(rng.integers(2, 6)), int(rng.integers(15, 120))
+    W, y, e, theta = random_problem(rng, p, N)
+    if seed % 4 == 3:                                     # exact duplicates of a few strips
+        W, y, e = np.vstack([W, W[:4]]), np.r_[y, y[:4]], np.r_[e, e[:4]]
+    box = hs = None
+    if seed % 3 == 1:
+        b = Polytope.from_strips(W, y, e).bounds()
+        box = (b.center - 0.6 * b.half_width, b.center + 0.9 * b.half_width)
+        H = rng.normal(size=(2, p))
+        hs = (H, H @ b.center + 0.3 * np.abs(H) @ b.half_width)
+    P = Polytope.from_strips(W, y, e, box=box, halfspaces=hs)
+    assert np.array_equal(P.nonredundant(), one_lp_per_side(W, y, e, box, hs))
+
+
+def test_nonredundant_without_interior():
+    """A P flat along one direction (two strips meet in a hyperplane) has no interior: the
+    relaxed-LP path decides every side. The strips returned give back P (equal supports in
+    random directions, by HiGHS on the subset) and each is needed (the reference's criterion)."""
+    rng = np.random.default_rng(21)
+    W, y, e, theta = random_problem(rng, 3, 40)
+    w = np.array([0.3, -0.7, 0.5])
+    s = w @ theta
+    W, y, e = np.vstack([W, w, w]), np.r_[y, s - 1.0, s + 1.0], np.r_[e, 1.0, 1.0]   # w^T theta = s
+    P = Polytope.from_strips(W, y, e)
+    keep = P.nonredundant()
+    assert {40, 41} <= set(keep.tolist())
+    ref = one_lp_per_side(W, y, e)
+    assert set(ref.tolist()) == set(keep.tolist())
+    sub = Polytope.from_strips(W[keep], y[keep], e[keep])
+    for d in rng.normal(size=(6, 3)):
+        assert sub.support(d) == pytest.approx(P.support(d), abs=1e-8)
+
+
+def test_staged_bounds_and_consistency_match_linprog(monkeypatch):
+    """The staged paths (strided samples, box screens, changes of frame, screened consistency
+    LP), normally taken from N = 160,000 on, forced at N = 6000 by smaller stages: bounds()
+    equal 2p scipy linprog solves on every strip, gamma* equals the minimax linprog (with an
+    outlier, gamma* > 1, and without), and on consistent data the level screen drops strips."""
+    import boundid.sets.polytope as pm
+    from boundid.sets._working_set import sample_levels
+
+    monkeypatch.setattr(pm, "sample_levels", lambda m: sample_levels(m, smallest=200, ratio=4))
+    kept = []
+    screen = pm.Polytope._level_screen
+    monkeypatch.setattr(pm.Polytope, "_level_screen", lambda self, *a: kept.append(screen(self, *a)) or kept[-1])
+    rng = np.random.default_rng(17)
+    W, y, e, theta = random_problem(rng, 5, 6000)
+    b = Polytope.from_strips(W, y, e).bounds()
+    A_ub, b_ub = np.vstack([W, -W]), np.concatenate([y + e, e - y])
+    for j in range(5):
+        c = np.eye(5)[j]
+        assert b.lo[j] == pytest.approx(linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=(None, None)).fun, abs=1e-8)
+        assert b.hi[j] == pytest.approx(-linprog(-c, A_ub=A_ub, b_ub=b_ub, bounds=(None, None)).fun, abs=1e-8)
+    y_out = y.copy()
+    y_out[123] += 30.0
+    for yy in (y, y_out):
+        Wn, yn = W / e[:, None], yy / e
+        ref = linprog(np.r_[np.zeros(5), 1.0], A_ub=np.vstack([np.hstack([Wn, -np.ones((6000, 1))]),
+                                                               np.hstack([-Wn, -np.ones((6000, 1))])]),
+                      b_ub=np.r_[yn, -yn], bounds=[(None, None)] * 5 + [(0, None)])
+        assert Polytope.from_strips(W, yy, e).consistency().gamma == pytest.approx(ref.fun, rel=1e-8)
+    assert len(kept) == 2 and kept[0] is not None and len(kept[0]) < 6000
+
+
+def test_strip_block_equals_explicit_rows():
+    """StripBlock (rows computed on demand) gives the rows, bounds and violations of the same
+    strips written out as arrays with numpy (r = y - W origin, n = |w * scale|)."""
+    from boundid.sets._working_set import StripBlock
+
+    rng = np.random.default_rng(8)
+    W, y, e, _ = random_problem(rng, 4, 300)
+    origin, scale = rng.normal(size=4), 10.0 ** rng.uniform(-2, 2, 4)
+    r, n = y - W @ origin, np.linalg.norm(W * scale, axis=1)
+    A = W * scale / n[:, None]
+    idx = rng.choice(300, 40, replace=False)
+    X = rng.normal(size=(5, 3))
+    blk = StripBlock(W, y, e, origin, scale)
+    assert np.allclose(blk.rows(idx), A[idx], rtol=1e-13, atol=0)
+    lo, up = blk.bounds(idx)
+    assert np.allclose(lo, ((r - e) / n)[idx], rtol=1e-12) and np.allclose(up, ((r + e) / n)[idx], rtol=1e-12)
+    act = A @ X[:4]
+    assert np.allclose(blk.violation(slice(0, 300), X[:4]), np.abs(act - (r / n)[:, None]) - (e / n)[:, None],
+                       atol=1e-12)
+    for side in (1, -1):                       # the consistency LP's rows on (z, t)
+        s = np.hypot(n, e)
+        sb = StripBlock(W, y, e, origin, scale, side=side)
+        assert np.allclose(sb.rows(idx), np.hstack([W * scale, side * e[:, None]])[idx] / s[idx, None], rtol=1e-13)
+        act = (W * scale @ X[:4] + side * e[:, None] * X[4]) / s[:, None]
+        want = (r / s)[:, None] - act if side > 0 else act - (r / s)[:, None]
+        assert np.allclose(sb.violation(slice(0, 300), X), want, atol=1e-12)

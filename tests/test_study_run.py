@@ -205,7 +205,7 @@ def test_cli_certify(tmp_path, capsys):
     (tmp_path / "small.json").write_text(json.dumps({"center": [0, 0], "shape": [[0.5, 0], [0, 0.5]]}))
     args = ["certify", "--regression", str(tmp_path / "reg.csv"), "--no-sdp", "--json", "--ellipsoid"]
     assert main([*args, str(tmp_path / "big.json")]) == 0
-    assert json.loads(capsys.readouterr().out)["contains polytope"] == "yes"
+    assert json.loads(capsys.readouterr().out)["contains_polytope"] is True
     assert main([*args, str(tmp_path / "small.json")]) == 3
-    assert json.loads(capsys.readouterr().out)["vertices outside"] == 4
+    assert json.loads(capsys.readouterr().out)["vertices_outside"] == 4
     assert main([*args, str(Path(tmp_path / "missing.json"))]) == 2

@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 from pathlib import Path
 
+from boundid import __version__
 from boundid.errors import BoundidError
+from boundid.resources import find_folder
 from boundid.studies import sizing
 
-DEFAULT_STUDIES = Path("studies")
 DEFAULT_REPORTS = Path("reports")
 
 
@@ -19,6 +21,25 @@ BUDGET_HELP = (f"Resource guard: a study whose experiment exceeds {sizing.ENV_MA
                f"(default {sizing.DEFAULT_MAX_SAMPLES:g}) or {sizing.ENV_MAX_MEMORY_GB} of estimated memory "
                f"(default {sizing.DEFAULT_MAX_MEMORY_GB:g}) is refused before it runs; set these environment "
                "variables to raise the budget.")
+
+
+CERTIFY_HELP = """\
+Check an ellipsoid from any estimator against the exact feasible polytope of the same data,
+P = {theta : |y_k - w_k^T theta| <= e_max_k for every row k}.
+
+The ellipsoid is E = {x : (x - c)^T S^-1 (x - c) <= 1}: c is "center", S is "shape" (p x p,
+symmetric positive definite, parameter units squared; its eigenvalues are the squared
+semi-axes). In information form, {"center": c, "information": M, "sigma": s} means
+E = {x : (x - c)^T M (x - c) <= s}, i.e. S = s M^-1 ("sigma" defaults to 1).
+
+E contains P when every vertex of P lies in E (p <= 6: all vertices; p > 6: the 2p vertices
+where the exact LP bounds are reached, a necessary condition). The report also gives E's
+interval widths over the exact LP widths and its ln-volume excess over the SDP outer and
+inscribed ellipsoids (--no-sdp: LP bounds only).
+
+Exit codes: 0 E contains the exact polytope; 3 it does not; 2 bad input (a file that cannot be
+read, wrong columns or shapes, a shape that is not positive definite), with a one-line message.
+"""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -102,9 +123,8 @@ def cmd_run(args) -> int:
 def cmd_report(args) -> int:
     from boundid.report.html import write_index
 
-    studies = sorted(Path(args.studies).glob("*.toml"))
-    if not studies:
-        raise BoundidError(f"no study files in {args.studies}/; add a *.toml study there.")
+    folder = find_folder("studies", "*.toml", args.studies, what="study files", option="--studies")
+    studies = sorted(folder.glob("*.toml"))
     out = Path(args.out)
     written = _run_studies(_load_studies(studies), out, args.quiet)
     index = write_index(out, [(name, title, page.relative_to(out)) for name, title, page in written])
@@ -142,7 +162,8 @@ def cmd_campaign(args) -> int:
 def cmd_bench(args) -> int:
     from boundid.bench.__main__ import main as bench_main
 
-    return bench_main(["--out", str(Path(args.out) / "benchmarks")] + (["--quick"] if args.quick else []))
+    return bench_main(["--out", str(Path(args.out) / "benchmarks")] + (["--quick"] if args.quick else [])
+                      + (["--page-only"] if args.page_only else []))
 
 
 def cmd_teach(args) -> int:
@@ -169,14 +190,44 @@ def cmd_list(args) -> int:
     return 0
 
 
+def _number(x) -> float | None:
+    """A float for strict JSON: None (null) for NaN or an infinity, which JSON cannot hold."""
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def certificate_json(cert) -> dict:
+    """The certificate as strict JSON: true/false, numbers, null for a value not computed
+    (e.g. the SDP excesses with --no-sdp), per-parameter values keyed by parameter name."""
+    names = list(cert.names)
+
+    def intervals(lo, hi) -> dict:
+        return {k: [_number(a), _number(b)] for k, a, b in zip(names, lo, hi, strict=True)}
+
+    return {
+        "contains_polytope": bool(cert.contains_polytope),
+        "vertices_checked": int(cert.n_vertices),
+        "vertex_kind": cert.vertex_kind,
+        "vertices_outside": int(cert.n_outside),
+        "max_mahalanobis2": _number(cert.max_mahalanobis2),
+        "width_ratio": {k: _number(v) for k, v in zip(names, cert.width_ratio, strict=True)},
+        "mean_width_ratio": _number(cert.width_ratio.mean()),
+        "max_width_ratio": _number(cert.width_ratio.max()),
+        "exact_bounds": intervals(cert.lp_lo, cert.lp_hi),
+        "ellipsoid_intervals": intervals(cert.lo, cert.hi),
+        "log_volume": _number(cert.log_volume),
+        "outer_reference": cert.outer_kind,
+        "log_volume_excess_per_dim_over_outer": _number(cert.excess_outer),
+        "log_volume_excess_per_dim_over_inner": _number(cert.excess_inner),
+    }
+
+
 def cmd_certify(args) -> int:
-    from boundid.studies.certify_files import certificate_row, certify_files
+    from boundid.studies.certify_files import certify_files
 
     cert = certify_files(args.regression, args.ellipsoid, e_max=args.e_max, sdp=not args.no_sdp)
     if args.json:
-        row = certificate_row(cert)
-        row.update(width_ratio=dict(zip(cert.names, cert.width_ratio.tolist(), strict=True)))
-        print(json.dumps(row, indent=2))
+        print(json.dumps(certificate_json(cert), indent=2, allow_nan=False))
     else:
         print(cert.summary())
     return 0 if cert.contains_polytope else 3
@@ -184,6 +235,7 @@ def cmd_certify(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     ap = _Parser(prog="boundid", description=__doc__)
+    ap.add_argument("--version", action="version", version=f"boundid {__version__}")
     sub = ap.add_subparsers(dest="command", required=True)
 
     seed = _integer(0, ">= 0")
@@ -198,8 +250,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("report", help="run every study in studies/ and write reports/ with its index",
                        epilog=BUDGET_HELP)
-    p.add_argument("--studies", default=str(DEFAULT_STUDIES))
-    p.add_argument("--out", default=str(DEFAULT_REPORTS))
+    p.add_argument("--studies", help="folder of *.toml study files (default: ./studies if it has any, else the "
+                                     "studies/ of the boundid checkout this package runs from)")
+    p.add_argument("--out", default=str(DEFAULT_REPORTS), help="reports folder (default: reports)")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=cmd_report)
 
@@ -227,11 +280,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("bench", help="run the benchmarks, write reports/benchmarks/")
     p.add_argument("--out", default=str(DEFAULT_REPORTS))
-    p.add_argument("--quick", action="store_true")
+    p.add_argument("--quick", action="store_true", help="smaller sizes, for a smoke run")
+    p.add_argument("--page-only", action="store_true",
+                   help="measure nothing: rebuild <out>/benchmarks/index.html from the CSV files there")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("teach", help="run the lessons in studies/teaching and write reports/teaching/ handouts")
-    p.add_argument("--lessons", default="studies/teaching", help="folder holding lesson*.py scripts")
+    p.add_argument("--lessons", help="folder holding lesson*.py scripts (default: ./studies/teaching if it has any, "
+                                     "else that of the boundid checkout this package runs from)")
     p.add_argument("--out", default=str(DEFAULT_REPORTS), help="reports folder (handouts go to <out>/teaching/)")
     p.add_argument("--only", nargs="*", help="run only lessons whose file name contains one of these")
     p.add_argument("--fast", action="store_true", help="small settings (BOUNDID_TEACH_FAST=1), for checks")
@@ -243,17 +299,20 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "certify",
         help="check your own estimator's final ellipsoid against the exact optima of the same data",
-        description="Exit code 0 if the ellipsoid contains the exact feasible polytope, 3 if not.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=CERTIFY_HELP,
     )
     p.add_argument("--regression", required=True,
-                   help="CSV or Parquet: columns w1..wp, y and e_max (or pass --e-max)")
+                   help="CSV or Parquet: columns w1..wp, y and e_max (or pass --e-max); one row per observation "
+                        "y = w^T theta + e with |e| <= e_max")
     p.add_argument("--ellipsoid", required=True,
-                   help='JSON {"center": [...], "shape": [[...]]} (or "information" and "sigma"), or CSV '
-                        "whose first row is the centre and the next p rows the shape matrix")
+                   help='JSON {"center": c, "shape": S} or {"center": c, "information": M, "sigma": s}, or CSV '
+                        "whose first row is the centre and the next p rows the shape matrix S")
     p.add_argument("--e-max", type=_positive_float,
                    help="one error bound for every row (instead of an e_max column)")
     p.add_argument("--no-sdp", action="store_true", help="skip the SDP volume comparison (LP bounds only)")
-    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--json", action="store_true",
+                   help="strict JSON on stdout: true/false, numbers, null for a value not computed")
     p.set_defaults(func=cmd_certify)
     return ap
 

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from boundid.bench.goals import Goal
 from boundid.studies.campaign import run_campaign
 from boundid.studies.config import load_study
 from boundid.studies.scenarios import Scenario
@@ -30,7 +31,16 @@ experiment SHORTENED to 5 s (2 s with --quick) instead of the study's 10 s.
 - `mean_replicate_s`: one replicate's own wall time inside its worker (slower when the cores are
   shared); `load_avg_1min`: the machine's load when the case started. The 2 cores are shared with
   other jobs: the 2-worker speed-up is bounded by the cores free at the time of the run.
+- Overhead: the in-process row's `ratio` is (1-worker campaign time) / (in-process loop time).
 """
+
+_SIZE = "{replicates} replicates of a {duration_s:g} s experiment"
+GOAL_CHECKS = (
+    Goal("2 workers over 1 worker (replicates per minute)", {"case": r"LocalCluster, 2 workers"}, "ratio", ">=", 1.6,
+         "x", size=_SIZE),
+    Goal("campaign overhead: 1-worker campaign time / in-process loop time", {"case": "in-process loop"}, "ratio",
+         "<=", 1.2, "x", size=_SIZE),
+)
 
 
 def _case(cfg, replicates: int, workers: int, label: str) -> dict:

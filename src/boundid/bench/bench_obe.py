@@ -8,6 +8,7 @@ import time
 import numpy as np
 import pandas as pd
 
+from boundid.bench.goals import Goal
 from boundid.estimators.obe import OBE
 
 GOALS = """
@@ -28,11 +29,28 @@ Goals at p = 14: selective >= 4 M samples/s for both forms and >= 20x the numpy 
 every-sample factorized >= 1.5 M updates/s; a fit with default settings within 20 % of the
 sparse rate (`default_ratio` >= 0.8; before history-on-updates the default
 recorded every sample and ran at about half the rate). Rates are wall-clock (including input
-checks and building the Estimate); the machine's two cores are shared, so
-`compiled_cpu_M_per_s` (process CPU time) is given too, with the 1-minute load average when the
-case ran, and `goal_met` says which of the two meets the goal ("wall", "cpu only" or "no").
-`kind` is what the estimate says of itself ("guaranteed" or "unverified").
+checks and building the Estimate); the machine's cores are shared, so `compiled_cpu_M_per_s`
+(process CPU time) is given too, with the 1-minute load average when the case ran: a goal met
+on CPU time only is marked so on the benchmark page. `kind` is what the estimate says of itself
+("guaranteed" or "unverified").
 """
+
+
+def _at14(form: str, mode: str) -> dict:
+    return {"p": "14", "form": form, "mode": mode}
+
+
+GOAL_CHECKS = (
+    *(Goal(f"{form} form, selective: rate", _at14(form, "selective"), "compiled_M_per_s", ">=", 4.0,
+           "M samples/s", size="p = {p}, N = {N:,}", cpu_column="compiled_cpu_M_per_s")
+      for form in ("standard", "factorized")),
+    *(Goal(f"{form} form, selective: speed-up over the numpy loop", _at14(form, "selective"), "ratio", ">=", 20.0,
+           "x", size="p = {p}, N = {N:,}") for form in ("standard", "factorized")),
+    Goal("factorized form, every sample: rate", _at14("factorized", "every sample"), "compiled_M_per_s", ">=", 1.5,
+         "M updates/s", size="p = {p}, N = {N:,}", cpu_column="compiled_cpu_M_per_s"),
+    *(Goal(f"{form} form, selective: default settings / sparse history (CPU time)", _at14(form, "selective"),
+           "default_ratio", ">=", 0.8, "", size="p = {p}, N = {N:,}") for form in ("standard", "factorized")),
+)
 
 
 def _numpy_loop(form, state, W, y, e, selective):
@@ -138,21 +156,4 @@ def run(quick: bool = False) -> pd.DataFrame:
                     "history_len": len(est.history), "load_avg": load, "kind": est.kind,
                     "contains_truth": est.contains(theta),
                 })
-    df = pd.DataFrame(rows)
-    goal = np.full(len(df), np.nan)
-    met = np.full(len(df), "", dtype=object)
-    at14 = df["p"] == 14
-    sel = at14 & (df["mode"] == "selective")
-    goal[sel] = 4.0
-    fac = at14 & (df["mode"] == "every sample") & (df["form"] == "factorized")
-    goal[fac] = 1.5
-    for rows_, g in ((sel, 4.0), (fac, 1.5)):
-        ok_ratio = df.loc[rows_, "ratio"] >= (20 if g == 4.0 else 0)
-        wall_ok = (df.loc[rows_, "compiled_M_per_s"] >= g) & ok_ratio
-        cpu_ok = (df.loc[rows_, "compiled_cpu_M_per_s"] >= g) & ok_ratio
-        met[rows_] = np.where(wall_ok, "wall", np.where(cpu_ok, "cpu only", "no"))
-    df["goal_M_per_s"] = goal
-    df["goal_met"] = met
-    default_ok = df["default_ratio"] >= 0.8
-    df["default_goal_met"] = np.where(sel, np.where(default_ok, "yes", "no"), "")
-    return df
+    return pd.DataFrame(rows)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import resource
 import time
 from pathlib import Path
@@ -13,6 +14,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import linprog
 
+from boundid.bench.goals import Goal
 from boundid.sets import Polytope, log_unit_ball_volume, sdp
 from boundid.sets._working_set import WorkingSetLP
 from boundid.sets.polytope import _TOUCH_TOL, LP_TOL
@@ -44,10 +46,39 @@ Goals (study scale):
   reference in the same run is the previous method (one LP per candidate side for redundancy
   removal, 2 LPs per non-redundant strip for tightening, then one S-procedure on all of them):
   `ratio` = reference time / our time; `log_vol_per_axis` of both (ours may only be smaller).
+* Redundancy removal, output-sensitive (issue 19, goal 1): `nonredundant()` on each study's
+  regression against the previous method in the same run (one LP per side the LP box reaches,
+  sequential elimination): `ratio` = reference time / our time; `detail` says whether both
+  return the same strips.
 * LP bounds at recording scale (p = 14): N = 1e6 <= 1 s and N = 1e7 <= 8 s within 4 GB.
-  `detail` gives the process's peak resident memory after the case and the strips left by the
-  box screen. Every row records the 1-minute load average when it ran (the machine has 2 cores).
+  `peak_rss_gb` is the process's peak resident memory after the case (10^9 bytes); `detail` the
+  strips left by the box screen. The consistency LP (gamma*) on the same data follows each case
+  (no goal; it is screened by a box too). Every row records the 1-minute load average when it ran
+  (the machine has 2 cores).
 """
+
+
+def _case(name: str) -> dict:
+    return {"case": re.escape(name)}
+
+
+GOAL_CHECKS = (
+    Goal("exact LP bounds: time", {**_case("bounds p=14 N=100000"), "reference": "scipy linprog.*"}, "time_s", "<=",
+         1.5, "s", size="{case}"),
+    Goal("exact LP bounds: speed-up over 2p scipy linprog calls",
+         {**_case("bounds p=14 N=100000"), "reference": "scipy linprog.*"}, "ratio", ">=", 50.0, "x", size="{case}"),
+    *(Goal(f"{kind} ellipsoid (with its LPs): time", _case(f"{kind} ellipsoid p=14 m={m}"), "time_s", "<=", 3.0,
+           "s", size="{case}") for m in (50, 200, 1000) for kind in ("inner", "outer", "John")),
+    *(Goal("study exact stage (LP bounds, SDP outer, inner, John): time",
+           {"case": re.escape(f"study {s} exact stage (") + ".*"}, "time_s", "<=", 5.0, "s", size="{case}")
+      for s in ("h4_obe", "direct_drive_rls")),
+    Goal("LP bounds at recording scale: time", _case("bounds p=14 N=1e+06"), "time_s", "<=", 1.0, "s",
+         size="{case}"),
+    Goal("LP bounds at recording scale: time", _case("bounds p=14 N=1e+07"), "time_s", "<=", 8.0, "s",
+         size="{case}"),
+    Goal("LP bounds at recording scale: peak memory", _case("bounds p=14 N=1e+07"), "peak_rss_gb", "<=", 4.0, "GB",
+         size="{case}"),
+)
 
 
 def _problem(rng, p, N):
@@ -101,8 +132,8 @@ def _bounds_rows(sizes, p, rng, cvxpy_max_n):
             dev = max(np.abs(lo - b.lo).max(), np.abs(hi - b.hi).max())
             rows.append({"case": f"bounds p={p} N={N}", "method": "constraint generation (highspy)",
                          "time_s": t_ours, "reference": name, "ref_time_s": t_ref, "ratio": t_ref / t_ours,
-                         "max_dev": dev, "goal": "<= 1.5 s, >= 50x vs linprog" if N >= 100_000 else "",
-                         "log_vol_per_axis": np.nan, "detail": f"{b.info['working_rows']} rows in working set"})
+                         "max_dev": dev, "log_vol_per_axis": np.nan,
+                         "detail": f"{b.info['working_rows']} rows in working set"})
     return rows
 
 
@@ -142,7 +173,7 @@ def _sdp_rows(sizes, p, rng):
         _, t_ref = _timed(_full_inner, P)
         rows.append({"case": f"inner ellipsoid p={p} m={m}", "method": "constraint generation + Clarabel",
                      "time_s": inner.time_s, "reference": "one SDP with every strip", "ref_time_s": t_ref,
-                     "ratio": t_ref / inner.time_s, "max_dev": np.nan, "goal": "<= 3 s",
+                     "ratio": t_ref / inner.time_s, "max_dev": np.nan,
                      "log_vol_per_axis": inner.ellipsoid.log_volume() / p,
                      "detail": f"{inner.info['working_sides']} sides in working set"})
         fresh = Polytope.from_strips(W, y, e)
@@ -150,14 +181,14 @@ def _sdp_rows(sizes, p, rng):
         raw_logvol, t_ref = _timed(_raw, P, P.bounds())
         rows.append({"case": f"outer ellipsoid p={p} m={m}", "method": "S-procedure, tightened non-redundant",
                      "time_s": outer.time_s, "reference": "S-procedure on all raw strips", "ref_time_s": t_ref,
-                     "ratio": t_ref / outer.time_s, "max_dev": np.nan, "goal": "<= 3 s",
+                     "ratio": t_ref / outer.time_s, "max_dev": np.nan,
                      "log_vol_per_axis": outer.ellipsoid.log_volume() / p,
                      "detail": f"{len(outer.strips)} strips used; raw-strip S-procedure ln vol / p = "
                                f"{raw_logvol / p:.3f}"})
         fresh = Polytope.from_strips(W, y, e)
         john = sdp.john_outer(fresh)
         rows.append({"case": f"John ellipsoid p={p} m={m}", "method": "p x inner", "time_s": john.time_s,
-                     "reference": "", "ref_time_s": np.nan, "ratio": np.nan, "max_dev": np.nan, "goal": "<= 3 s",
+                     "reference": "", "ref_time_s": np.nan, "ratio": np.nan, "max_dev": np.nan,
                      "log_vol_per_axis": john.ellipsoid.log_volume() / p, "detail": ""})
     return rows
 
@@ -189,11 +220,10 @@ def _study_regression(path: str):
     return Path(path).stem, d["W"], d["y"], float(d["e_max"]), (d["lo"], d["hi"])
 
 
-def _previous_outer(P: Polytope):
-    """The previous outer-ellipsoid method, kept here as the reference: non-redundant strips by
-    one LP per side the LP box reaches (side relaxed, sequential elimination), each tightened by
-    2 LPs, then one S-procedure on all of them with the LP box. Returns (ln vol, strips)."""
-    b = P.bounds()
+def _previous_nonredundant(P: Polytope) -> np.ndarray:
+    """The previous redundancy removal, kept here as the reference: one LP per side the LP box
+    reaches (side relaxed, sequential elimination over the whole data)."""
+    P.bounds()
     origin, scale = P.box_frame()
     blk = P._strip_block(P._frame)
     up_s, lo_s = blk.up.copy(), blk.lo.copy()
@@ -203,7 +233,7 @@ def _previous_outer(P: Polytope):
     eng = WorkingSetLP([blk], *P._col_bounds(P._frame), seed=[(0, P._engine.ws_rows(0))], tol=LP_TOL)
     blk.up[~up_c], blk.lo[~lo_c] = np.inf, -np.inf
     for k in np.flatnonzero(~up_c | ~lo_c):
-        if eng.row_of[0][k] >= 0:
+        if eng.in_ws[0][k]:
             eng.set_bounds(0, k, blk.lo[k], blk.up[k])
     keep = np.zeros(P.n_strips, dtype=bool)
     for k in np.flatnonzero(up_c | lo_c):
@@ -217,7 +247,19 @@ def _previous_outer(P: Polytope):
                 eng.set_bounds(0, k, blk.lo[k], up_s[k]) if side > 0 else eng.set_bounds(0, k, lo_s[k], blk.up[k])
             else:
                 eng.set_bounds(0, k, blk.lo[k], np.inf) if side > 0 else eng.set_bounds(0, k, -np.inf, blk.up[k])
-    nr = np.flatnonzero(keep)
+    return np.flatnonzero(keep)
+
+
+def _previous_outer(P: Polytope):
+    """The previous outer-ellipsoid method, kept here as the reference: the previous redundancy
+    removal, each non-redundant strip tightened by 2 LPs, then one S-procedure on all of them
+    with the LP box. Returns (ln vol, strips, time of the redundancy removal)."""
+    b = P.bounds()
+    origin, scale = P.box_frame()
+    G = P.W * scale / P._frame.n[:, None]
+    t0 = time.perf_counter()
+    nr = _previous_nonredundant(P)
+    t_nr = time.perf_counter() - t0
     full = P._engine
     lo = np.array([float(G[k] @ full.minimize(G[k])[0]) for k in nr]) - LP_TOL
     hi = np.array([float(G[k] @ full.minimize(-G[k])[0]) for k in nr]) + LP_TOL
@@ -225,7 +267,7 @@ def _previous_outer(P: Polytope):
     Gs = np.vstack([np.eye(P.dim), G[nr]])
     lo, hi = np.concatenate([zlo, lo]), np.concatenate([zhi, hi])
     A0, *_ = sdp._s_procedure(Gs, 0.5 * (lo + hi), 0.5 * (hi - lo), [], False, "previous outer")
-    return log_unit_ball_volume(P.dim) - 0.5 * np.linalg.slogdet(A0)[1] + np.sum(np.log(scale)), nr
+    return log_unit_ball_volume(P.dim) - 0.5 * np.linalg.slogdet(A0)[1] + np.sum(np.log(scale)), nr, t_nr
 
 
 def _study_rows(paths, reference: bool):
@@ -242,27 +284,39 @@ def _study_rows(paths, reference: bool):
             t[what] = (time.perf_counter() - t0, out)
         total = sum(v[0] for v in t.values())
         outer = t["SDP outer"][1]
-        ref_t, ref_lv, detail = np.nan, np.nan, ""
+        R = Polytope.from_strips(W, y, e, box=box)
+        R.bounds()
+        t0 = time.perf_counter()
+        ours_nr = R.nonredundant()
+        t_nr = time.perf_counter() - t0
+        ref_t, ref_lv, detail, nr, ref_nr_t = np.nan, np.nan, "", None, np.nan
         if reference:
             Q = Polytope.from_strips(W, y, e, box=box)
             Q.bounds()
             t0 = time.perf_counter()
-            ref_lv, nr = _previous_outer(Q)
+            ref_lv, nr, ref_nr_t = _previous_outer(Q)
             ref_t = time.perf_counter() - t0
             detail = f"previous method: {len(nr)} non-redundant strips, ln vol / p = {ref_lv / p:.6f}; "
         rows.append({"case": f"study {name} exact stage (N={P.n_strips}, p={p})",
                      "method": "LP bounds + SDP outer + inner + John", "time_s": total,
                      "reference": "", "ref_time_s": np.nan, "ratio": np.nan, "max_dev": np.nan,
-                     "goal": "<= 5 s", "log_vol_per_axis": np.nan, "load_avg": _load(),
+                     "log_vol_per_axis": np.nan, "load_avg": _load(),
                      "detail": ", ".join(f"{k} {v[0]:.2f} s" for k, v in t.items())})
         rows.append({"case": f"study {name} SDP outer (N={P.n_strips}, p={p})",
                      "method": "S-procedure, column generation over every tightened strip",
                      "time_s": t["SDP outer"][0], "reference": "previous: every non-redundant strip, 1 LP/side",
-                     "ref_time_s": ref_t, "ratio": ref_t / t["SDP outer"][0], "max_dev": np.nan, "goal": "",
+                     "ref_time_s": ref_t, "ratio": ref_t / t["SDP outer"][0], "max_dev": np.nan,
                      "log_vol_per_axis": outer.ellipsoid.log_volume() / p, "load_avg": _load(),
                      "detail": detail + f"ours: {outer.info['rounds']} SDP rounds, {len(outer.strips)} strips in "
                                f"the SDP, {outer.info['strips_tightened']} tightened, {outer.info['support_lps']} "
                                f"support LPs, max reduced cost {outer.info['max_reduced_cost']:.2g}"})
+        same = "" if nr is None else f"; same strips as the previous method: {np.array_equal(nr, ours_nr)}"
+        rows.append({"case": f"study {name} nonredundant (N={P.n_strips}, p={p})",
+                     "method": "box screen, dual-bound screening, cone/ray certificates",
+                     "time_s": t_nr, "reference": "previous: 1 LP per side the LP box reaches",
+                     "ref_time_s": ref_nr_t, "ratio": ref_nr_t / t_nr, "max_dev": np.nan,
+                     "log_vol_per_axis": np.nan, "load_avg": _load(),
+                     "detail": f"{len(ours_nr)} non-redundant strips{same}"})
     return rows
 
 
@@ -273,15 +327,22 @@ def _large_rows(sizes, p, rng):
         t0 = time.perf_counter()
         b = Polytope.from_strips(W, y, e).bounds()
         dt = time.perf_counter() - t0
-        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e9  # Linux: ru_maxrss in KiB
         rows.append({"case": f"bounds p={p} N={N:.0e}", "method": "staged constraint generation (highspy)",
                      "time_s": dt, "reference": "", "ref_time_s": np.nan, "ratio": np.nan, "max_dev": np.nan,
-                     "goal": "<= 1 s" if N <= 1_000_000 else "<= 8 s, <= 4 GB", "log_vol_per_axis": np.nan,
-                     "load_avg": _load(),
-                     "detail": f"peak RSS {peak:.2f} GiB (W alone {W.nbytes / 2**30:.2f} GiB); {b.info['passes']} "
+                     "log_vol_per_axis": np.nan, "load_avg": _load(), "peak_rss_gb": peak,
+                     "detail": f"W alone {W.nbytes / 1e9:.2f} GB; {b.info['passes']} "
                                f"passes, {b.info['lp_solves']} LP solves, {b.info['strips_reaching_box']} strips "
                                "reach the final box"})
-        del W, y, e
+        P = Polytope.from_strips(W, y, e)
+        t0 = time.perf_counter()
+        c = P.consistency()
+        dt = time.perf_counter() - t0
+        rows.append({"case": f"consistency p={p} N={N:.0e}", "method": "staged minimax LP, level screen (highspy)",
+                     "time_s": dt, "reference": "", "ref_time_s": np.nan, "ratio": np.nan, "max_dev": np.nan,
+                     "log_vol_per_axis": np.nan, "load_avg": _load(), "peak_rss_gb": np.nan,
+                     "detail": f"gamma* = {c.gamma:.9f}, {len(c.active)} rows active"})
+        del W, y, e, P
     return rows
 
 
@@ -293,6 +354,8 @@ def run(quick: bool = False) -> pd.DataFrame:
     bounds at N = 1e6, 1e7 (quick: 1e5)."""
     rng = np.random.default_rng(2024)
     p = 14
+    W0 = np.random.default_rng(0).normal(size=(200, p))   # compiled kernels loaded before any timing
+    Polytope.from_strips(W0, W0 @ np.ones(p), 1.0).bounds()
     sizes = (300, 3000) if quick else (1_000, 10_000, 100_000)
     rows = _bounds_rows(sizes, p, rng, cvxpy_max_n=10_000)
     rows += _sdp_rows((50,) if quick else (50, 200, 1000), p, rng)

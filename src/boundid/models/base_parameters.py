@@ -36,6 +36,7 @@ import scipy.linalg
 from boundid._validation import as_vector
 from boundid.errors import InputError, SolverError
 from boundid.models.base import RobotModel
+from boundid.sets.constraints import PhysicalConstraints
 
 #: Default rank tolerance on |R_ii| / |R_11| (the UR5 and the Panda show a gap from ~1e-2 to ~1e-16).
 RANK_TOL = 1e-10
@@ -188,6 +189,15 @@ class BaseParameterModel(RobotModel):
     def standard(self, beta=None) -> np.ndarray:
         """The standard vector used for the dynamics of beta (default: the robot's truth)."""
         return self.robot.theta_true if beta is None else self.base.standard(self._theta(beta), self.robot.theta_true)
+
+    def physical_constraints(self, **options) -> PhysicalConstraints:
+        """The robot's constraints on its standard parameters x, lifted to beta = K x
+        [SousaCortesao2014]: the physically consistent beta are {K x : x satisfies them}, a
+        projection kept in lifted form (options: those of the robot's ``physical_constraints``)."""
+        own = getattr(self.robot, "physical_constraints", None)
+        if own is None:
+            raise InputError(f"{self.robot.name} declares no physical constraints on its standard parameters.")
+        return own(**options).lifted(self.base.K, self.param_names)
 
     def regressor(self, q, qd, qdd) -> np.ndarray:
         return self.robot.regressor(q, qd, qdd)[..., self._cols]

@@ -27,6 +27,7 @@ import numpy as np
 
 from boundid.errors import InputError
 from boundid.models.base import RobotModel, coulomb
+from boundid.sets.constraints import Cone, LinearRows, PhysicalConstraints, constraints, linear_rows, nonnegative
 
 #: Physical values of the CICESE direct-drive arm (docs/models.md), SI units.
 PHYSICAL = {
@@ -156,6 +157,49 @@ class DirectDriveArm(RobotModel):
                    + th[5] * v1 + th[7] * sg[:, 0])
         b[:, 1] = th[1] * s2 * v1 ** 2 + th[4] * s12 + th[6] * v2 + th[8] * sg[:, 1]
         return b
+
+    # -- physical consistency -------------------------------------------------------------
+    def physical_constraints(self, com_on_links: bool = True) -> PhysicalConstraints:
+        """What the 9 parameters of physical links can be (module docstring for their definitions).
+
+        With m1, m2 >= 0, I1, I2 >= 0 (inertias about the centres of mass) and l1 > 0:
+
+        * th3 = m2 lc2^2 + I2 >= 0 and th1 - th3 = m1 lc1^2 + m2 l1^2 + I1 >= 0 (sums of squares
+          times masses, and inertias);
+        * th3 (th1 - th3) >= th2^2, a rotated second-order cone, written ||(2 th2, 2 th3 - th1)|| <= th1:
+          (m2 lc2^2 + I2)(m1 lc1^2 + m2 l1^2 + I1) >= (m2 lc2^2)(m2 l1^2) = (l1 m2 lc2)^2. It is
+          exactly "M(q) >= 0 at every q": det M(q) = th3 (th1 - th3) - th2^2 cos^2 q2, smallest at
+          q2 = 0 or pi, and M22 = th3. It is also tight for the triple: any (th1, th2, th3) in the
+          cone with th2 > 0 is realised, for the arm's l1, by lc2 in [th2 l1 / (th1 - th3), th3 l1 / th2]
+          (non-empty iff th2^2 <= th3 (th1 - th3)), m2 = th2 / (l1 lc2) and I1, I2 >= 0. (The cone
+          implies the two rows above; they are kept as readable rows. Left out: th5 = g th2 / l1,
+          an equality through the known l1, and th3 th4 >= th2 th5, valid but not convex.)
+        * with ``com_on_links`` (the centre of mass of each link on its own side of the joint,
+          lc1, lc2 >= 0, true of this arm; false for a link counterweighted past its joint):
+          th2 = l1 m2 lc2 >= 0, th4 = g (lc1 m1 + m2 l1) >= 0, th5 = g m2 lc2 >= 0;
+        * friction dissipates: qd (b qd + fc sign qd) = b qd^2 + fc |qd| >= 0 for every qd iff
+          b >= 0 and fc >= 0 (large and small |qd|), for each joint.
+        """
+        names = self.param_names
+        mass_rows = linear_rows([[0, 0, -1] + [0] * 6, [-1, 0, 1] + [0] * 6], [0.0, 0.0],
+                                ["th3 >= 0", "th1 - th3 >= 0"],
+                                ["th3 = m2 lc2^2 + I2", "th1 - th3 = m1 lc1^2 + m2 l1^2 + I1"], 9)
+        com = [1, 3, 4] if com_on_links else []
+        why_com = ["th2 = l1 m2 lc2 with lc2 >= 0", "th4 = g (lc1 m1 + m2 l1) with lc1 >= 0",
+                   "th5 = g m2 lc2 with lc2 >= 0"]
+        rows = nonnegative(names, com + [5, 6, 7, 8], (why_com if com_on_links else [])
+                           + ["viscous friction dissipates: b qd^2 >= 0 for every qd"] * 2
+                           + ["Coulomb friction dissipates: fc |qd| >= 0 for every qd"] * 2)
+        G = np.zeros((2, 9))
+        G[0, 1], G[1, 0], G[1, 2] = 2.0, -1.0, 2.0
+        f = np.zeros(9)
+        f[0] = 1.0
+        cone = Cone(G, np.zeros(2), f, 0.0, "th3 (th1 - th3) >= th2^2",
+                    "(m2 lc2^2 + I2)(m1 lc1^2 + m2 l1^2 + I1) >= (l1 m2 lc2)^2; equivalent to M(q) >= 0 "
+                    "for every q (det M = th3 (th1 - th3) - th2^2 cos^2 q2)")
+        lin = LinearRows(np.vstack([mass_rows.A, rows.A]), np.concatenate([mass_rows.b, rows.b]),
+                         mass_rows.labels + rows.labels, mass_rows.reasons + rows.reasons)
+        return constraints(names, lin, cones=[cone])
 
     # -- simulation hook -------------------------------------------------------------------
     def fast_acceleration(self, q, qd, u, theta, coulomb_width: float) -> list[float]:

@@ -33,6 +33,7 @@ from boundid.errors import InputError, UnreachablePoseError
 from boundid.models import _h4_kernels as kern
 from boundid.models.base import RobotModel, coulomb
 from boundid.models.h4_kinematics import H4Geometry, H4Kinematics
+from boundid.sets.constraints import PhysicalConstraints, constraints, nonnegative
 
 PARAM_NAMES = ("Imot1", "Imot2", "Imot3", "Imot4", "Mnac", "Ibc",
                "Fv1", "Fv2", "Fv3", "Fv4", "Fs1", "Fs2", "Fs3", "Fs4")
@@ -236,6 +237,25 @@ class H4Robot(H4Kinematics, RobotModel):
         phi[:, 6:10] = qd**2
         phi[:, 10:] = np.abs(qd)
         return phi[0] if single else phi
+
+    # -- physical consistency -------------------------------------------------------------
+    def physical_constraints(self) -> PhysicalConstraints:
+        """Imot_i, Mnac, Ibc, Fv_i, Fs_i >= 0: every one of the 14 parameters of eq. (18).
+
+        Derivations ([H4Paper] eq. (14)): Imot_i is the inertia about motor axis i of the rotor and
+        of what turns rigidly with it (the integral of r^2 dm over those bodies, r the distance to
+        the axis); Mnac is a mass (the nacelle's, with the rods' nacelle halves); Ibc is the
+        nacelle's inertia about its vertical axis (again an integral of r^2 dm); friction
+        dissipates: the power qd_i (Fv_i qd_i + Fs_i sign qd_i) = Fv_i qd_i^2 + Fs_i |qd_i| is >= 0
+        for every qd_i iff Fv_i >= 0 (large |qd_i|) and Fs_i >= 0 (small |qd_i|). Together they
+        make M(q) = diag(Imot) + J^T diag(Mnac, Mnac, Mnac, Ibc) J positive semidefinite at every
+        pose, but are not implied by it: they come from what each parameter is.
+        """
+        why = (["a rotor's inertia about its motor axis (with the arm share): the integral of r^2 dm"] * 4
+               + ["the nacelle's mass", "the nacelle's inertia about its vertical axis: the integral of r^2 dm"]
+               + ["viscous friction dissipates: Fv qd^2 >= 0 for every qd"] * 4
+               + ["Coulomb friction dissipates: Fs |qd| >= 0 for every qd"] * 4)
+        return constraints(self.param_names, nonnegative(self.param_names, range(14), why))
 
     # -- joint-space dynamics (compiled kernel, includes the structural terms of H4Truth) ---
     def joint_dynamics(self, q, qd, theta=None, coulomb_width: float = 0.0, x0=None):

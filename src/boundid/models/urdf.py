@@ -60,6 +60,8 @@ from boundid._validation import as_float_array, as_vector
 from boundid.errors import InputError
 from boundid.models.base import RobotModel, coulomb
 from boundid.models.limits import JointLimits
+from boundid.sets.constraints import PhysicalConstraints, constraints, linear_rows
+from boundid.sets.constraints import pseudo_inertia as pseudo_inertia_lmi
 
 #: Fixed-base arms of ``example-robot-data``: name -> (URDF path under its ``robots`` folder,
 #: default joint selection, None for every movable joint).
@@ -301,6 +303,94 @@ class UrdfRobot(RobotModel):
         self._dyn_key: np.ndarray | None = None
         self._dyn: tuple[pin.Model, object] | None = None
         self._fast_theta: list[float] | None = None
+
+    # -- physical consistency -------------------------------------------------------------
+    def physical_constraints(self, pseudo_inertia: bool = True, triangle: bool = False,
+                             cad: float | None = None) -> PhysicalConstraints:
+        """What theta can be for rigid links, dissipative friction and motor inertias.
+
+        pseudo_inertia : per body j the 4 x 4 LMI J_j = [[Sigma_j, h_j], [h_j^T, m_j]] >= 0 with
+            Sigma_j = 1/2 tr(I_j) 1 - I_j, linear in the body's 10 parameters (pinocchio's order;
+            :func:`boundid.sets.constraints.pseudo_inertia`). J_j is the integral of [r; 1][r; 1]^T dm
+            over the body, so it is >= 0 for every body, and a body with these parameters exists iff
+            J_j >= 0 [WensingKimSlotine2018]. It implies m_j >= 0, I_j >= 0 and the triangle
+            inequalities of the principal moments [SousaCortesao2014].
+        triangle : also the linear necessary conditions m_j >= 0 and Iyy + Izz >= Ixx, Ixx + Izz >= Iyy,
+            Ixx + Iyy >= Izz (the diagonal of Sigma_j >= 0), for an LP relaxation without the LMIs.
+        cad : None, or a fraction (e.g. 0.2): each inertial parameter within +- cad of its URDF
+            value, |x - x_urdf| <= cad s with s = |x_urdf|, or, for a value 0 in the URDF (a product
+            of inertia of a symmetric body), s = the largest |value| of its group in the same body
+            (mass, first moments, inertias); a group all 0 in the URDF gets no bound.
+        Always: friction dissipates, fv_j qd^2 + fc_j |qd| >= 0 for every qd iff fv_j, fc_j >= 0;
+        the armature Ia_j (motor inertia reflected through the gear, >= 0) when identified. Offsets
+        are unconstrained.
+
+        ``scale`` of the result: per body a mass m (the URDF's) and a length l (the RMS distance of
+        its mass from the joint frame, sqrt(tr Sigma / m)), giving m, m l, m l^2 for the mass, first
+        moments and inertias; |value| or 1 for friction, armature and offsets.
+        """
+        n, names, ref = self.n_joints, self.param_names, self.theta_true
+        lmis, rows_A, rows_b, labels, reasons = [], [], [], [], []
+        scale = np.ones(self.p)
+        link_reason = ("the integral of [r; 1][r; 1]^T dm over the body: >= 0 for every body, and a body with "
+                       "these parameters exists iff it is >= 0 [WensingKimSlotine2018]")
+        for j in range(n):
+            s0 = 10 * j
+            pi = ref[s0:s0 + 10]
+            m = pi[0] if pi[0] > 0 else 1.0
+            Ij = np.array([[pi[4], pi[5], pi[7]], [pi[5], pi[6], pi[8]], [pi[7], pi[8], pi[9]]])
+            tr_sigma = 0.5 * np.trace(Ij)          # tr Sigma = tr(I) / 2
+            length = np.sqrt(tr_sigma / m) if pi[0] > 0 and tr_sigma > 0 else 1.0
+            scale[s0:s0 + 10] = np.r_[m, [m * length] * 3, [m * length ** 2] * 6]
+            body = f"body {j + 1} ({self.link_names[j]})"
+            if pseudo_inertia:
+                lmis.append(pseudo_inertia_lmi(self.p, s0, f"J{j + 1} >= 0", f"pseudo-inertia of {body}: "
+                                               + link_reason))
+            if triangle:
+                e = np.eye(self.p)
+                ixx, iyy, izz = e[s0 + 4], e[s0 + 6], e[s0 + 9]
+                b = j + 1
+                for row, lab in ((-e[s0], f"m{b} >= 0"), (ixx - iyy - izz, f"Iyy{b} + Izz{b} >= Ixx{b}"),
+                                 (iyy - ixx - izz, f"Ixx{b} + Izz{b} >= Iyy{b}"),
+                                 (izz - ixx - iyy, f"Ixx{b} + Iyy{b} >= Izz{b}")):
+                    rows_A.append(row)
+                    rows_b.append(0.0)
+                    labels.append(lab)
+                    reasons.append(f"{body}: a mass, or a diagonal entry of Sigma (the integral of r r^T dm) >= 0")
+            if cad is not None:
+                if not (np.isfinite(cad) and cad > 0):
+                    raise InputError(f"cad must be a fraction > 0 (e.g. 0.2 for +-20 %), got {cad}.")
+                for group in (range(0, 1), range(1, 4), range(4, 10)):
+                    big = max(abs(pi[k]) for k in group)
+                    for k in group:
+                        s = abs(pi[k]) if pi[k] != 0 else big
+                        if s == 0:
+                            continue
+                        e = np.zeros(self.p)
+                        e[s0 + k] = 1.0
+                        rows_A += [e, -e]
+                        rows_b += [pi[k] + cad * s, -(pi[k] - cad * s)]
+                        nm = names[s0 + k]
+                        labels += [f"{nm} <= {pi[k] + cad * s:.4g}", f"{nm} >= {pi[k] - cad * s:.4g}"]
+                        reasons += [f"CAD bound: the URDF value {pi[k]:.4g} +- {100 * cad:g} % of {s:.4g}"] * 2
+        for key, why in (("Ia", "a motor inertia reflected through its gear: >= 0"),
+                         ("fv", "viscous friction dissipates: fv qd^2 >= 0 for every qd"),
+                         ("fc", "Coulomb friction dissipates: fc |qd| >= 0 for every qd")):
+            if key not in self._slices:
+                continue
+            for k in range(self._slices[key].start, self._slices[key].stop):
+                e = np.zeros(self.p)
+                e[k] = -1.0
+                rows_A.append(e)
+                rows_b.append(0.0)
+                labels.append(f"{names[k]} >= 0")
+                reasons.append(why)
+        for key in ("Ia", "fv", "fc", "off"):
+            if key in self._slices:
+                sl = self._slices[key]
+                scale[sl] = np.where(ref[sl] != 0, np.abs(ref[sl]), 1.0)
+        rows = linear_rows(np.array(rows_A).reshape(-1, self.p), rows_b, labels, reasons, self.p)
+        return constraints(names, rows, lmis=lmis, scale=scale)
 
     # -- construction helpers ------------------------------------------------------------
     def _body_frames(self) -> list[int]:

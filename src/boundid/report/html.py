@@ -45,7 +45,7 @@ h1 { font-size: 1.7rem; margin: 0 0 .4rem; }
 h2 { font-size: 1.25rem; margin: 2.2rem 0 .6rem; padding-bottom: .25rem; border-bottom: 1px solid var(--line); }
 p { margin: .5rem 0; max-width: 75ch; }
 a { color: var(--accent); }
-nav { font-size: .9rem; margin: .8rem 0 1.2rem; color: var(--muted); }
+nav { font-size: .9rem; margin: .8rem 0 1.2rem; color: var(--muted); display: flex; flex-wrap: wrap; row-gap: .3rem; }
 nav a { margin-right: .9rem; white-space: nowrap; }
 dl.setup { display: grid; grid-template-columns: max-content auto; gap: .15rem 1.2rem; margin: 1rem 0;
            padding: .7rem 1rem; background: var(--bg-alt); border-radius: 6px; font-size: .92rem; }
@@ -55,7 +55,13 @@ figure.fig img { max-width: 100%; height: auto; display: block; border: 1px soli
 figcaption { font-size: .9rem; color: var(--muted); margin: .35rem 0; }
 figcaption b { color: var(--fg); }
 .files { font-size: .8rem; margin-left: .5rem; }
-.scroll { overflow-x: auto; }
+/* a table wider than its box scrolls sideways; shadows at the edges that have more columns behind
+   them say so (the "local" white covers hide each shadow once that edge is reached) */
+.scroll { overflow-x: auto; background:
+  linear-gradient(to right, #fff 30%, rgba(255, 255, 255, 0)) left / 2.5rem 100% no-repeat local,
+  linear-gradient(to left, #fff 30%, rgba(255, 255, 255, 0)) right / 2.5rem 100% no-repeat local,
+  radial-gradient(farthest-side at 0 50%, rgba(0, 0, 0, .28), transparent) left / .9rem 100% no-repeat scroll,
+  radial-gradient(farthest-side at 100% 50%, rgba(0, 0, 0, .28), transparent) right / .9rem 100% no-repeat scroll; }
 table.data { border-collapse: collapse; font-size: .88rem; font-variant-numeric: tabular-nums; }
 table.data th, table.data td { padding: .28rem .65rem; border-bottom: 1px solid var(--line); text-align: right;
                                white-space: nowrap; }
@@ -95,6 +101,17 @@ $body
 def _paragraphs(text: str) -> str:
     """Plain text -> escaped <p> blocks (blank lines separate paragraphs)."""
     return "\n".join(f"<p>{html.escape(' '.join(p.split()))}</p>" for p in re.split(r"\n\s*\n", text) if p.strip())
+
+
+def _summary(text: str, limit: int = 300) -> str:
+    """``text`` on one line, at most ``limit`` characters, cut after a sentence (else a word), never
+    inside a word: the page's meta description, which the index shows under its link."""
+    text = " ".join(text.split())
+    if len(text) <= limit:
+        return text
+    head = text[:limit + 1]
+    end = head.rfind(". ")
+    return head[:end + 1] if end > limit // 3 else head[:head.rfind(" ")].rstrip(",;:") + " …"
 
 
 def _slug(text: str, taken: set[str]) -> str:
@@ -138,6 +155,9 @@ class Page:
     separated by blank lines);  setup : {key: value} shown as a definition list under it (robot,
     samples, noise level, ...);  dpi : PNG resolution of figures.
     """
+
+    css = _CSS  # subclasses may add rules (the teaching handouts' stepper) or
+    csp = _CSP  # allow one script by its hash
 
     def __init__(self, title: str, description: str = "", *, setup: Mapping[str, object] | None = None,
                  dpi: int = DPI, max_bytes: int = MAX_PAGE_BYTES):
@@ -238,9 +258,9 @@ class Page:
                 parts.append(inner)
             else:
                 parts.append(f'<section id="{s.anchor}">\n<h2>{html.escape(s.title)}</h2>\n{inner}\n</section>')
-        first_line = " ".join(self.description.split())[:300]
-        return _PAGE.substitute(csp=_CSP, meta_description=html.escape(first_line), version=__version__,
-                                title=html.escape(self.title), css=_CSS, body="\n".join(p for p in parts if p))
+        first_line = _summary(self.description)
+        return _PAGE.substitute(csp=self.csp, meta_description=html.escape(first_line), version=__version__,
+                                title=html.escape(self.title), css=self.css, body="\n".join(p for p in parts if p))
 
     def to_markdown(self) -> str:
         """The page as Markdown (``summary.md``): text, tables via tabulate, figures as links."""

@@ -14,7 +14,10 @@ Three things keep the passes few at N = 1e7:
   working set are found on cheap passes (the sampling LP of Clarkson 1995, deterministic here);
 * the pool is read in slices of ``CHUNK`` rows, never copied: a block holds the caller's raw
   rows ``A`` with a column scale ``d`` and a row scale ``s``, and row i acts on the LP
-  variables as (A_i * d) / s_i (the well-scaled coordinates of :mod:`boundid.sets.polytope`).
+  variables as (A_i * d) / s_i (the well-scaled coordinates of :mod:`boundid.sets.polytope`);
+  a :class:`StripBlock` does not even store its bounds and row norms: it computes them for the
+  rows a pass or the working set asks for (compiled, one read of each row), so a change of
+  coordinates costs nothing until a row is used.
 
 :meth:`WorkingSetLP.supports` solves many objectives over the same polytope with as few LPs as
 possible: the optimal basis of one LP proves the same vertex optimal for every direction in its
@@ -28,6 +31,7 @@ from dataclasses import dataclass, field
 
 import highspy
 import numpy as np
+from numba import njit
 from threadpoolctl import ThreadpoolController
 
 from boundid.errors import SolverError
@@ -36,6 +40,7 @@ _INF = highspy.kHighsInf
 _STATUS = highspy.HighsModelStatus
 _AT_LOWER = highspy.HighsBasisStatus.kLower
 _AT_UPPER = highspy.HighsBasisStatus.kUpper
+_BASIC = highspy.HighsBasisStatus.kBasic
 #: rows per slice of a pass over the pool (bounds the temporaries at N = 1e7)
 CHUNK = 1 << 15
 #: a direction d is in the normal cone of a basis when its multipliers are >= -_CONE_TOL |d|
@@ -101,6 +106,15 @@ class Block:
             V = np.maximum(self.lo[sl, None] - V, V - self.up[sl, None])
         return V
 
+    def bounds(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, up) of pool rows ``idx``."""
+        return self.lo[idx], self.up[idx]
+
+    def set_bounds(self, k: int, lo: float, up: float) -> None:
+        """Change the bounds of pool row k."""
+        self.lo[k], self.up[k] = lo, up
+        self._kind = None
+
     def rows(self, idx: np.ndarray) -> np.ndarray:
         """The effective coefficient rows of pool rows ``idx``, (len(idx), p [+ 1])."""
         R = self.A[idx]
@@ -122,6 +136,160 @@ class Block:
         if self.g is not None:
             R += self.g[sl, None] * X[p][None, :]
         return R
+
+
+@njit(cache=True)
+def frame_rows(W: np.ndarray, y: np.ndarray, origin: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Strips seen from theta = origin + scale * z, for the rows of W (m, p): (r, n), both (m,),
+    r_k = y_k - w_k^T origin, n_k = |w_k * scale| (1 for an all-zero row). One read of each row,
+    a fixed order of operations: the same row always gives the same bits (passes and working
+    set agree)."""
+    m, p = W.shape
+    r, n = np.empty(m), np.empty(m)
+    for i in range(m):
+        acc, ss = y[i], 0.0
+        for j in range(p):
+            w = W[i, j]
+            acc -= w * origin[j]
+            v = w * scale[j]
+            ss += v * v
+        r[i] = acc
+        n[i] = np.sqrt(ss) if ss > 0.0 else 1.0
+    return r, n
+
+
+@njit(cache=True)
+def col_rms(W: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """RMS over the rows of w_kj / e_k for each column j, (p,) (one read of W)."""
+    N, p = W.shape
+    ss = np.zeros(p)
+    for i in range(N):
+        q = 1.0 / (e[i] * e[i])
+        for j in range(p):
+            ss[j] += W[i, j] * W[i, j] * q
+    return np.sqrt(ss / max(N, 1))
+
+
+@njit(cache=True)
+def box_reach(W, y, e, rows, center, half, level, tol):
+    """Which strips |y_k - w_k^T theta| <= level e_k do not contain the box |theta - center| <=
+    half (element-wise): max over the box of |y_k - w_k^T theta| = |r_k| + |w_k|^T half exceeds
+    level e_k - tol (n_k + level e_k + |r_k|), r_k = y_k - w_k^T center, n_k = |w_k * half| (the
+    test of the normalised strip with relative margin ``tol``: a strip not kept contains the
+    box). ``rows``: the strips to test (empty: all). Returns a boolean mask over them."""
+    every = rows.size == 0
+    m = W.shape[0] if every else rows.size
+    p = W.shape[1]
+    keep = np.empty(m, dtype=np.bool_)
+    for k in range(m):
+        i = k if every else rows[k]
+        r, a, ss = y[i], 0.0, 0.0
+        for j in range(p):
+            w = W[i, j]
+            r -= w * center[j]
+            v = abs(w) * half[j]
+            a += v
+            ss += v * v
+        n = np.sqrt(ss) if ss > 0.0 else 1.0
+        le = level * e[i]
+        keep[k] = abs(r) + a > le - tol * (n + le + abs(r))
+    return keep
+
+
+@njit(cache=True)
+def max_ratio(W, y, e, X):
+    """max_k |y_k - w_k^T x| / e_k for each row x of X (m, p), over every row k (one read)."""
+    N, p = W.shape
+    out = np.zeros(X.shape[0])
+    for i in range(N):
+        for c in range(X.shape[0]):
+            acc = y[i]
+            for j in range(p):
+                acc -= W[i, j] * X[c, j]
+            q = abs(acc) / e[i]
+            if q > out[c]:
+                out[c] = q
+    return out
+
+
+@njit(cache=True)
+def level_ratios(W, y, e, origin, dz, theta):
+    """The consistency LP's answer on the original data: rho_k = |r_k - w_k^T dz| / e_k with
+    r_k = y_k - w_k^T origin (as in :func:`frame_rows`), and max_k (|y_k| + |w_k|^T |theta|) / e_k
+    (the size of the residual's rounding). Returns (rho (N,), that max)."""
+    N, p = W.shape
+    rho = np.empty(N)
+    mag = 0.0
+    for i in range(N):
+        r, a, s = y[i], 0.0, abs(y[i])
+        for j in range(p):
+            w = W[i, j]
+            r -= w * origin[j]
+            a += w * dz[j]
+            s += abs(w) * abs(theta[j])
+        rho[i] = abs(r - a) / e[i]
+        s /= e[i]
+        if s > mag:
+            mag = s
+    return rho, mag
+
+
+class StripBlock:
+    """Pool rows of the strips |y_k - w_k^T theta| <= level e_k seen from theta = origin + scale z,
+    computed on demand (r_k, n_k of :func:`frame_rows`; nothing of size N is stored).
+
+    side 0: lo_k <= (w_k * scale)^T z / n_k <= up_k with lo, up = (r_k -+ level e_k) / n_k.
+    side +1 / -1: the two halves of the consistency LP over (z, t), rows
+    [w_k * scale, +-e_k] / s_k with s_k = (n_k^2 + e_k^2)^(1/2):  w z + e t >= r  (side +1,
+    lo = r / s) and  w z - e t <= r  (side -1, up = r / s).
+    """
+
+    def __init__(self, W, y, e, origin, scale, side: int = 0, level: float = 1.0):
+        self.W, self.y, self.e = W, y, e
+        self.origin, self.scale = np.asarray(origin, dtype=float), np.asarray(scale, dtype=float)
+        self.side, self.level = side, float(level)
+
+    @property
+    def m(self) -> int:
+        return self.W.shape[0]
+
+    def _rn(self, sl) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        Ws = np.ascontiguousarray(self.W[sl])
+        r, n = frame_rows(Ws, self.y[sl], self.origin, self.scale)
+        return Ws, r, n
+
+    def bounds(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        _, r, n = self._rn(idx)
+        e = self.e[idx]
+        if self.side == 0:
+            return (r - self.level * e) / n, (r + self.level * e) / n
+        s = np.hypot(n, e)
+        return (r / s, np.full(r.size, np.inf)) if self.side > 0 else (np.full(r.size, -np.inf), r / s)
+
+    def rows(self, idx: np.ndarray) -> np.ndarray:
+        Ws, r, n = self._rn(idx)
+        if self.side == 0:
+            return Ws * self.scale / n[:, None]
+        e = self.e[idx]
+        s = np.hypot(n, e)
+        return np.hstack([Ws * self.scale, self.side * e[:, None]]) / s[:, None]
+
+    def violation(self, sl, X: np.ndarray) -> np.ndarray:
+        """Distance of each row ``sl`` outside its bounds at the columns of X (negative inside)."""
+        Ws, r, n = self._rn(sl)
+        p = Ws.shape[1]
+        V = Ws @ (self.scale[:, None] * X[:p])
+        e = self.e[sl]
+        if self.side == 0:
+            V -= r[:, None]
+            np.abs(V, out=V)
+            V -= self.level * e[:, None]
+            V /= n[:, None]
+            return V
+        V += self.side * e[:, None] * X[p][None, :]         # activity times s
+        V -= r[:, None]
+        V *= -self.side / np.hypot(n, e)[:, None]
+        return V
 
 
 def sample_levels(m: int, smallest: int = 10_000, ratio: int = 16) -> tuple[int, ...]:
@@ -177,7 +345,8 @@ class WorkingSetLP:
         self.batch = batch
         self.max_rounds = max_rounds
         self.in_ws = [np.zeros(b.m, dtype=bool) for b in self.blocks]
-        self.row_of = [np.full(b.m, -1, dtype=np.int64) for b in self.blocks]
+        #: HiGHS row of each pool row in the working set (read only where in_ws; never filled)
+        self.row_of = [np.empty(b.m, dtype=np.int64) for b in self.blocks]
         #: the part of each block's pool that passes look at (None: all of it); the caller may
         #: leave out rows that no future optimum can violate (e.g. strips containing a box that
         #: contains the working set's polytope)
@@ -187,6 +356,9 @@ class WorkingSetLP:
         self.n_rows = 0
         self.n_solves = 0
         self.n_passes = 0
+        #: the last optimal basis of each objective of a multi-objective minimize_many (by the
+        #: bytes of its cost), so that each re-solve starts at its own vertex, not at the last one
+        self._bases: dict[bytes, highspy.HighsBasis] = {}
         h = highspy.Highs()
         for name, val in (("output_flag", False), ("presolve", "off"), ("solver", "simplex"),
                           ("primal_feasibility_tolerance", 1e-10), ("dual_feasibility_tolerance", 1e-10),
@@ -215,33 +387,56 @@ class WorkingSetLP:
         ncol = self.n_cols
         idx = np.tile(np.arange(ncol, dtype=np.int32), rows.size)
         starts = np.arange(rows.size, dtype=np.int32) * ncol
-        lo = np.where(np.isfinite(blk.lo[rows]), blk.lo[rows], -_INF)
-        up = np.where(np.isfinite(blk.up[rows]), blk.up[rows], _INF)
+        blo, bup = blk.bounds(rows)
+        lo = np.where(np.isfinite(blo), blo, -_INF)
+        up = np.where(np.isfinite(bup), bup, _INF)
         self.h.addRows(rows.size, lo, up, vals.size, starts, idx, vals.ravel().astype(float))
         self.in_ws[b][rows] = True
         self.row_of[b][rows] = np.arange(self.n_rows, self.n_rows + rows.size)
         self._ws_coef = np.vstack([self._ws_coef, vals])
-        self._ws_lo = np.concatenate([self._ws_lo, blk.lo[rows]])
-        self._ws_up = np.concatenate([self._ws_up, blk.up[rows]])
+        self._ws_lo = np.concatenate([self._ws_lo, blo])
+        self._ws_up = np.concatenate([self._ws_up, bup])
         self.n_rows += rows.size
 
     def take_basis(self, other: WorkingSetLP) -> None:
-        """Start from ``other``'s last basis: the same pool rows in the same constraint set,
-        seen in other coordinates (rescaled columns and rows, shifted bounds), so the vertex and
-        its basis carry over and the next solves start where ``other`` stopped."""
-        basis = other.h.getBasis()
-        if not basis.valid:
-            return
-        status = list(basis.row_status)
-        rows = [None] * self.n_rows
+        """Start from ``other``'s bases (its last one, and the one kept for each objective): the
+        same pool rows in the same constraint set, seen in other coordinates (rescaled columns
+        and rows, shifted bounds), so the vertices and their bases carry over and the next
+        solves start where ``other`` stopped. Needs every working-set row of ``other`` here."""
+        src = np.full(self.n_rows, -1, dtype=np.int64)     # row of other for each row here
         for b in range(len(self.blocks)):
             ks = np.flatnonzero(self.in_ws[b] & other.in_ws[b])
-            for k in ks:
-                rows[self.row_of[b][k]] = status[other.row_of[b][k]]
-        if any(r is None for r in rows):
+            src[self.row_of[b][ks]] = other.row_of[b][ks]
+        if np.any(src < 0) or np.unique(src).size != other.n_rows:
             return
-        basis.row_status = rows
+
+        def mapped(basis):
+            status = list(basis.row_status)
+            basis.row_status = [status[j] if j < len(status) else _BASIC for j in src.tolist()]
+            return basis
+
+        self._bases = {k: mapped(v) for k, v in other._bases.items()}
+        basis = other.h.getBasis()
+        if basis.valid:
+            self.h.setBasis(mapped(basis))
+
+    def _restore(self, key: bytes) -> None:
+        """Set the basis kept for objective ``key``, rows added since then basic (their slacks:
+        the basis stays dual feasible, the dual simplex starts at that objective's vertex)."""
+        basis = self._bases.get(key)
+        if basis is None:
+            return
+        status = list(basis.row_status)
+        if len(status) < self.n_rows:
+            basis.row_status = status + [_BASIC] * (self.n_rows - len(status))
         self.h.setBasis(basis)
+
+    def set_col_bounds(self, lo: np.ndarray, hi: np.ndarray) -> None:
+        """Change the column bounds (+-inf allowed)."""
+        self.col_lo, self.col_hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+        self.h.changeColsBounds(self.n_cols, np.arange(self.n_cols, dtype=np.int32),
+                                np.where(np.isfinite(self.col_lo), self.col_lo, -_INF),
+                                np.where(np.isfinite(self.col_hi), self.col_hi, _INF))
 
     def ws_rows(self, b: int) -> np.ndarray:
         """Pool indices of block ``b`` in the working set."""
@@ -249,11 +444,9 @@ class WorkingSetLP:
 
     def set_bounds(self, b: int, k: int, lo: float, up: float) -> None:
         """Change the bounds of pool row k of block b (and of its working-set copy)."""
-        blk = self.blocks[b]
-        blk.lo[k], blk.up[k] = lo, up
-        blk._kind = None
-        r = self.row_of[b][k]
-        if r >= 0:
+        self.blocks[b].set_bounds(k, lo, up)
+        if self.in_ws[b][k]:
+            r = self.row_of[b][k]
             self._ws_lo[r], self._ws_up[r] = lo, up
             self.h.changeRowBounds(int(r), lo if np.isfinite(lo) else -_INF, up if np.isfinite(up) else _INF)
 
@@ -295,12 +488,23 @@ class WorkingSetLP:
         return out
 
     # ------------------------------------------------------------------ solves
-    def _solve(self, cost: np.ndarray) -> np.ndarray:
+    def _solve(self, cost: np.ndarray, keep_basis: bool = False) -> np.ndarray:
+        """argmin of cost^T x on the working set; ``keep_basis``: start from, and keep, the last
+        basis of this same objective."""
         h = self.h
-        h.changeColsCost(self.n_cols, np.arange(self.n_cols, dtype=np.int32), np.asarray(cost, dtype=float))
+        cost = np.asarray(cost, dtype=float)
+        if keep_basis:
+            self._restore(cost.tobytes())
+        h.changeColsCost(self.n_cols, np.arange(self.n_cols, dtype=np.int32), cost)
         h.run()
         self.n_solves += 1
         st = h.getModelStatus()
+        if st == _STATUS.kNotset:
+            # HiGHS stopped before solving (seen rarely after many warm re-solves: it rejects
+            # its own carried basis): the same LP once more from scratch
+            h.clearSolver()
+            h.run()
+            st = h.getModelStatus()
         if st == _STATUS.kInfeasible:
             raise LPStatusError("infeasible")
         if st in (_STATUS.kUnbounded, _STATUS.kUnboundedOrInfeasible):
@@ -309,6 +513,8 @@ class WorkingSetLP:
             raise SolverError(f"HiGHS stopped with status {h.modelStatusToString(st)} on a {self.n_rows}-row "
                               "working set of a problem already solved in well-scaled coordinates; report "
                               "this case (the data, or W, y, e_max) so the scaling can be improved.")
+        if keep_basis:
+            self._bases[cost.tobytes()] = h.getBasis()
         return np.array(h.getSolution().col_value)
 
     @one_blas_thread
@@ -329,7 +535,7 @@ class WorkingSetLP:
             pending = np.arange(costs.shape[0])
             for _ in range(self.max_rounds):
                 for i in pending:
-                    X[i] = self._solve(costs[i])
+                    X[i] = self._solve(costs[i], keep_basis=costs.shape[0] > 1)
                 worst = self.violators(X[pending].T, batch=max(8, self.batch // max(1, pending.size // 4)))
                 still = []
                 for i, w in zip(pending, worst, strict=True):
@@ -349,59 +555,86 @@ class WorkingSetLP:
         x = self.minimize_many(np.asarray(cost, dtype=float)[None, :])[0]
         return x, float(np.asarray(cost, dtype=float) @ x)
 
-    def active_normals(self, x: np.ndarray) -> np.ndarray | None:
-        """Outward normals (rows) of the constraints active at the optimal vertex x, (n_cols,
-        n_cols): x is optimal for every direction in their cone. The active set is read from the
-        activities (fast); at a degenerate vertex (more than n_cols active) from HiGHS's basis,
-        the nonbasic constraints. None if neither gives n_cols normals."""
+    def active_normals(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The constraints active at the optimal vertex x as (N, own, opp): outward normals N
+        (n_cols, n_cols), so that x is optimal for every direction in their cone; own, opp
+        (n_cols,): every point of the working set's polytope has N x <= own and -N x <= opp (the
+        other side of the same row or column bound; inf if it has none). The active set is read
+        from the activities (fast); at a degenerate vertex (more than n_cols active) from HiGHS's
+        basis, the nonbasic constraints. None if neither gives n_cols normals."""
         act = self._ws_coef @ x
         tol = 1e-9 * (1.0 + np.abs(act))
         up, lo = act >= self._ws_up - tol, act <= self._ws_lo + tol
         cu = x >= self.col_hi - 1e-9 * (1.0 + np.abs(x))
         cl = x <= self.col_lo + 1e-9 * (1.0 + np.abs(x))
-        if int(up.sum() + lo.sum() + cu.sum() + cl.sum()) == self.n_cols:
-            I = np.eye(self.n_cols)
-            return np.vstack([I[cu], -I[cl], self._ws_coef[up], -self._ws_coef[lo]])
-        basis = self.h.getBasis()
-        N = []
-        for j, s in enumerate(basis.col_status):
-            if s == _AT_UPPER:
-                N.append(np.eye(self.n_cols)[j])
-            elif s == _AT_LOWER:
-                N.append(-np.eye(self.n_cols)[j])
-        rs = basis.row_status
-        up = [r for r, s in enumerate(rs) if s == _AT_UPPER]
-        lo = [r for r, s in enumerate(rs) if s == _AT_LOWER]
-        N = np.vstack([np.array(N).reshape(-1, self.n_cols), self._ws_coef[up], -self._ws_coef[lo]])
-        return N if N.shape[0] == self.n_cols else None
+        if int(up.sum() + lo.sum() + cu.sum() + cl.sum()) != self.n_cols:
+            basis = self.h.getBasis()
+            cs = np.array([int(s.value) for s in basis.col_status])
+            rs = np.array([int(s.value) for s in basis.row_status])
+            cu, cl = cs == int(_AT_UPPER.value), cs == int(_AT_LOWER.value)
+            up, lo = rs == int(_AT_UPPER.value), rs == int(_AT_LOWER.value)
+            if int(up.sum() + lo.sum() + cu.sum() + cl.sum()) != self.n_cols:
+                return None
+        I = np.eye(self.n_cols)
+        N = np.vstack([I[cu], -I[cl], self._ws_coef[up], -self._ws_coef[lo]])
+        own = np.concatenate([self.col_hi[cu], -self.col_lo[cl], self._ws_up[up], -self._ws_lo[lo]])
+        opp = np.concatenate([-self.col_lo[cu], self.col_hi[cl], -self._ws_lo[up], self._ws_up[lo]])
+        return N, own, opp
 
     @one_blas_thread
-    def supports(self, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """max over the pool's polytope of d^T x for each row d of ``dirs`` (k, n_cols).
+    def supports(self, dirs: np.ndarray, below: np.ndarray | None = None,
+                 outer: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """max over the pool's polytope of d^T x for each row d of ``dirs`` (see :func:`supports`)."""
+        return supports(self, dirs, below, outer)
 
-        Returns (values (k,), vertices (v, n_cols), which (k,) index of the maximising vertex).
-        One LP per distinct optimal basis: after each LP, every pending direction inside the
-        normal cone of its basis is answered by the same vertex (exactly, no LP).
-        """
-        dirs = np.atleast_2d(np.asarray(dirs, dtype=float))
-        k = dirs.shape[0]
-        values, which, verts = np.full(k, np.nan), np.full(k, -1, dtype=np.int64), []
-        pending = np.arange(k)
-        while pending.size:
-            i = pending[0]
-            x = self.minimize_many(-dirs[i][None, :])[0]
-            verts.append(x)
-            covered = pending == i
-            N = self.active_normals(x)
-            if N is not None:
-                try:
-                    lam = np.linalg.solve(N.T, dirs[pending].T)
-                except np.linalg.LinAlgError:
-                    lam = None
-                if lam is not None:
-                    scale = np.linalg.norm(dirs[pending], axis=1)
-                    covered |= np.all(lam >= -_CONE_TOL * scale, axis=0)
-            values[pending[covered]] = dirs[pending[covered]] @ x
-            which[pending[covered]] = len(verts) - 1
-            pending = pending[~covered]
-        return values, np.array(verts), which
+
+def supports(lp, dirs: np.ndarray, below: np.ndarray | None = None,
+             outer: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """max over the polytope of ``lp`` (a :class:`WorkingSetLP`) of d^T x
+    for each row d of ``dirs`` (k, n_cols).
+
+    Returns (values (k,), vertices (v, n_cols), which (k,) index of the maximising vertex).
+    One LP per distinct optimal basis: after each LP, every pending direction inside the
+    normal cone of its basis is answered by the same vertex (exactly, no LP).
+
+    ``below`` (k,): only whether each support is below ``below`` is wanted. After each LP,
+    every pending d = N^T lam (N the basis's normals) gets the bound
+    sum_{lam_j > 0} lam_j own_j + sum_{lam_j < 0} |lam_j| opp_j >= its support (LP duality,
+    from the two sides of each basic constraint, or from ``outer``, a box (lo, hi) known to
+    contain the polytope); a direction whose bound falls below ``below`` is settled without
+    an LP: its value is that bound and ``which`` is -1. The LPs take the pending directions in
+    order (neighbours in the data are often neighbours on the polytope: warm starts).
+    """
+    dirs = np.atleast_2d(np.asarray(dirs, dtype=float))
+    k = dirs.shape[0]
+    values, which, verts = np.full(k, np.nan), np.full(k, -1, dtype=np.int64), []
+    ub = np.full(k, np.inf)
+    pending = np.arange(k)
+    while pending.size:
+        i = pending[0]
+        x = lp.minimize_many(-dirs[i][None, :])[0]
+        verts.append(x)
+        covered = pending == i
+        screened = np.zeros(pending.size, dtype=bool)
+        found = lp.active_normals(x)
+        if found is not None:
+            N, own, opp = found
+            try:
+                lam = np.linalg.solve(N.T, dirs[pending].T)
+            except np.linalg.LinAlgError:
+                lam = None
+            if lam is not None:
+                scale = np.linalg.norm(dirs[pending], axis=1)
+                covered |= np.all(lam >= -_CONE_TOL * scale, axis=0)
+                if below is not None:
+                    if outer is not None:           # -n^T x over the box, for each normal n
+                        opp = np.minimum(opp, np.maximum(-N * outer[0], -N * outer[1]).sum(axis=1))
+                    with np.errstate(invalid="ignore"):
+                        bound = np.where(lam > 0, lam * own[:, None], -lam * opp[:, None]).sum(axis=0)
+                    ub[pending] = np.minimum(ub[pending], np.where(np.isnan(bound), np.inf, bound))
+                    screened = ~covered & (ub[pending] < below[pending])
+        values[pending[covered]] = dirs[pending[covered]] @ x
+        which[pending[covered]] = len(verts) - 1
+        values[pending[screened]] = ub[pending[screened]]
+        pending = pending[~covered & ~screened]
+    return values, np.array(verts), which

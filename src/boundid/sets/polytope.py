@@ -19,7 +19,12 @@ the parameters or of y:
   bounding box (which contains P's) and drops the strips that contain the box (no later optimum
   can violate them: the box-screen); the last stage is re-solved once more in the
   final box frame when that frame was off by more than 10x in some direction and the vertices
-  fail their certificate (see Bounds) where they were solved.
+  fail their certificate (see Bounds) where they were solved. The boxes only shrink, so each
+  screen tests only the strips the previous box left.
+
+A frame stores no array of size N: r_k and n_k below are computed (compiled, one read of the row)
+for the rows a pass or the working set uses, so the passes over all N rows are three: the column
+scales, the first box screen and the residuals of the certificate.
 
 In z, strip k is {z : |r_k - (w_k * scale)^T z| <= e_k} with r_k = y_k - w_k^T origin; each row
 is divided by n_k = |w_k * scale|, so the LP rows have unit norm, the strip's half-width is
@@ -37,15 +42,30 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import scipy.linalg
+import scipy.optimize
 from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError, cKDTree
 
 from boundid._validation import as_bounds, as_float_array, as_matrix, as_regression, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
 from boundid.sets._plane import require_2d
-from boundid.sets._working_set import CHUNK, Block, LPStatusError, WorkingSetLP, sample_levels, strided_sample
+from boundid.sets._working_set import (
+    CHUNK,
+    Block,
+    LPStatusError,
+    StripBlock,
+    WorkingSetLP,
+    box_reach,
+    col_rms,
+    frame_rows,
+    level_ratios,
+    max_ratio,
+    sample_levels,
+    strided_sample,
+)
 from boundid.sets.vertex_polytope import VertexPolytope, shadow
 
 #: largest dimension for which vertices() and volume() enumerate vertices exactly
@@ -168,15 +188,31 @@ def _chunks(n: int):
         yield slice(start, min(n, start + CHUNK))
 
 
-@dataclass(frozen=True)
 class _Frame:
     """Well-scaled coordinates theta = origin + scale * z and the strips seen from them:
-    r = y - W origin (N,), n = |w_k * scale| (N,; 1 for an all-zero row)."""
+    r = y - W origin, n = |w_k * scale| (1 for an all-zero row), computed for the rows asked
+    (``rn``, :func:`frame_rows`) or, on the paths that need every row, once in full (``r``, ``n``).
+    A change of frame costs nothing until a row is used."""
 
-    origin: np.ndarray
-    scale: np.ndarray
-    r: np.ndarray
-    n: np.ndarray
+    def __init__(self, origin: np.ndarray, scale: np.ndarray, W: np.ndarray, y: np.ndarray):
+        self.origin, self.scale = np.array(origin, dtype=float), np.array(scale, dtype=float)
+        self._W, self._y = W, y
+
+    def rn(self, rows) -> tuple[np.ndarray, np.ndarray]:
+        """(r, n) of the strips ``rows`` (index array or slice)."""
+        return frame_rows(np.ascontiguousarray(self._W[rows]), self._y[rows], self.origin, self.scale)
+
+    @cached_property
+    def _full(self) -> tuple[np.ndarray, np.ndarray]:
+        return frame_rows(self._W, self._y, self.origin, self.scale)
+
+    @property
+    def r(self) -> np.ndarray:
+        return self._full[0]
+
+    @property
+    def n(self) -> np.ndarray:
+        return self._full[1]
 
     def to_theta(self, Z: np.ndarray) -> np.ndarray:
         return self.origin + self.scale * Z
@@ -236,11 +272,7 @@ class Polytope:
         X = np.atleast_2d(as_float_array(points, "points"))
         if X.shape[-1] != self.dim:
             raise InputError(f"points must have {self.dim} columns, got shape {X.shape}.")
-        out = np.zeros(X.shape[0])
-        for sl in _chunks(self.n_strips):
-            R = np.abs(self.y[sl, None] - self.W[sl] @ X.T) / self.e_max[sl, None]
-            out = np.maximum(out, R.max(axis=0))
-        return out
+        return max_ratio(self.W, self.y, self.e_max, np.ascontiguousarray(X, dtype=float))
 
     def contains(self, points, rtol: float = 1e-9) -> np.ndarray | bool:
         """Whether each point (row of ``points``) satisfies every constraint up to ``rtol``
@@ -293,24 +325,13 @@ class Polytope:
 
     # ------------------------------------------------------------------ the frame
     def _make_frame(self, origin: np.ndarray, scale: np.ndarray) -> _Frame:
-        N = self.n_strips
-        r, n = np.empty(N), np.empty(N)
-        for sl in _chunks(N):
-            Ws = self.W[sl]
-            r[sl] = self.y[sl] - Ws @ origin
-            Ws = Ws * scale
-            n[sl] = np.sqrt(np.einsum("ij,ij->i", Ws, Ws))
-        n[n == 0] = 1.0
-        return _Frame(origin.copy(), scale.copy(), r, n)
+        return _Frame(origin, scale, self.W, self.y)
 
     def _first_frame(self) -> _Frame:
         """Column equilibration (capped by the box) and a least-squares origin (module docstring)."""
         W, y, e = self.W, self.y, self.e_max
         N, p = W.shape
-        ss = np.zeros(p)
-        for sl in _chunks(N):
-            ss += np.einsum("ij,ij->j", W[sl], W[sl] / e[sl, None] ** 2)
-        rms = np.sqrt(ss / N)
+        rms = col_rms(W, e)
         scale = np.where(rms > 0, 1.0 / np.where(rms > 0, rms, 1.0), np.inf)
         if self.box is not None:
             hb = 0.5 * (self.box[1] - self.box[0])
@@ -336,8 +357,13 @@ class Polytope:
         return self._frame
 
     def _strip_block(self, F: _Frame) -> Block:
-        """The strips in frame F: (r_k - e_k)/n_k <= (w_k * scale)^T z / n_k <= (r_k + e_k)/n_k."""
+        """The strips in frame F: (r_k - e_k)/n_k <= (w_k * scale)^T z / n_k <= (r_k + e_k)/n_k,
+        as arrays of every row (bounds that can be changed one by one)."""
         return Block(self.W, (F.r - self.e_max) / F.n, (F.r + self.e_max) / F.n, d=F.scale, s=F.n)
+
+    def _strip_pool(self, F: _Frame) -> StripBlock:
+        """The same strips, each row computed when a pass or the working set uses it."""
+        return StripBlock(self.W, self.y, self.e_max, F.origin, F.scale)
 
     def _halfspace_block(self, F: _Frame, g_extra=None) -> Block:
         if self.halfspaces is None:
@@ -363,7 +389,7 @@ class Polytope:
         W, N, p = self.W, self.n_strips, self.dim
         rows = np.unique(np.linspace(0, N - 1, min(N, 20 * p)).astype(np.int64))
         for _ in range(p + 1):
-            A = W[rows] * F.scale / F.n[rows, None]
+            A = W[rows] * F.scale / F.rn(rows)[1][:, None]
             R, piv = scipy.linalg.qr(A.T, mode="r", pivoting=True)
             d = np.abs(np.diag(R))
             r = int(np.sum(d > max(N, p) * _EPS * d[0])) if d.size and d[0] > 0 else 0
@@ -373,7 +399,7 @@ class Polytope:
             null = Vt[r:]                          # directions the sample does not see
             best, arg = np.zeros(null.shape[0]), np.zeros(null.shape[0], dtype=np.int64)
             for sl in _chunks(N):
-                proj = np.abs((W[sl] * F.scale / F.n[sl, None]) @ null.T)
+                proj = np.abs((W[sl] * F.scale / F.rn(sl)[1][:, None]) @ null.T)
                 i = np.argmax(proj, axis=0)
                 better = proj[i, np.arange(len(i))] > best
                 best[better], arg[better] = proj[i, np.arange(len(i))][better], sl.start + i[better]
@@ -385,7 +411,7 @@ class Polytope:
         if self._rank is None:
             G = np.zeros((self.dim, self.dim))
             for sl in _chunks(self.n_strips):
-                A = self.W[sl] * F.scale / F.n[sl, None]
+                A = self.W[sl] * F.scale / F.rn(sl)[1][:, None]
                 G += A.T @ A
             ev = np.clip(np.linalg.eigvalsh(G)[::-1], 0.0, None)
             sv = np.sqrt(ev)
@@ -395,7 +421,7 @@ class Polytope:
     def _theta_engine(self) -> WorkingSetLP:
         if self._engine is None:
             F = self._get_frame()
-            self._engine = WorkingSetLP([self._strip_block(F), self._halfspace_block(F)], *self._col_bounds(F),
+            self._engine = WorkingSetLP([self._strip_pool(F), self._halfspace_block(F)], *self._col_bounds(F),
                                         seed=[(0, self._seed(F)), (1, np.arange(self._n_half))], tol=LP_TOL)
         return self._engine
 
@@ -403,14 +429,13 @@ class Polytope:
     def _n_half(self) -> int:
         return 0 if self.halfspaces is None else len(self.halfspaces[1])
 
-    def _box_reach(self, F: _Frame) -> np.ndarray:
-        """Strips not implied by the box [-1, 1]^p of frame F: |g_k|_1 reaches a side (one pass)."""
-        keep = np.zeros(self.n_strips, dtype=bool)
-        for sl in _chunks(self.n_strips):
-            reach = np.abs(self.W[sl]) @ F.scale / F.n[sl]
-            mid, half = F.r[sl] / F.n[sl], self.e_max[sl] / F.n[sl]
-            keep[sl] = reach + np.abs(mid) > half - _TOUCH_TOL * (1.0 + half + np.abs(mid))
-        return np.flatnonzero(keep)
+    def _box_reach(self, F: _Frame, rows: np.ndarray | None = None) -> np.ndarray:
+        """Strips not implied by the box [-1, 1]^p of frame F (|g_k|_1 reaches a side, with a
+        relative margin _TOUCH_TOL): the strips of ``rows`` (None: all, one pass) that P can
+        touch if P lies in that box."""
+        sel = np.zeros(0, dtype=np.int64) if rows is None else np.asarray(rows, dtype=np.int64)
+        keep = box_reach(self.W, self.y, self.e_max, sel, F.origin, F.scale, 1.0, _TOUCH_TOL)
+        return np.flatnonzero(keep) if rows is None else sel[keep]
 
     def _set_frame(self, F: _Frame, pool: np.ndarray | None = None) -> None:
         """Move the LPs to frame F, keeping the working set's rows; ``pool``: the strips the
@@ -419,7 +444,7 @@ class Polytope:
         self._frame = F
         seed = [(0, old.ws_rows(0)), (1, np.arange(self._n_half))] if old is not None else \
             [(0, self._seed(F)), (1, np.arange(self._n_half))]
-        self._engine = WorkingSetLP([self._strip_block(F), self._halfspace_block(F)], *self._col_bounds(F),
+        self._engine = WorkingSetLP([self._strip_pool(F), self._halfspace_block(F)], *self._col_bounds(F),
                                     seed=seed, tol=LP_TOL)
         if old is not None:
             self._engine.take_basis(old)
@@ -479,38 +504,76 @@ class Polytope:
         [refs §LP]); gamma = inf if the prior alone is empty. Never raises for bad data.
 
         Solved in the first frame: rows [w_k * scale, e_k] / |[w_k * scale, e_k]| on (z, t), so
-        that both the parameters and the level t = gamma are well scaled."""
+        that both the parameters and the level t = gamma are well scaled; at large N in stages
+        on strided samples, with the strips that no optimum can reach screened out by a box
+        (see :meth:`_level_screen`)."""
         if self._consistency is not None:
             return self._consistency
         F = self._get_frame()
         W, e = self.W, self.e_max
         N, p = W.shape
-        s = np.sqrt(F.n**2 + e**2)
-        blocks = [Block(W, F.r / s, np.full(N, np.inf), g=e / s, d=F.scale, s=s),       # w z + e t >= r
-                  Block(W, np.full(N, -np.inf), F.r / s, g=-e / s, d=F.scale, s=s),     # w z - e t <= r
+        blocks = [StripBlock(W, self.y, e, F.origin, F.scale, side=+1),      # w z + e t >= r
+                  StripBlock(W, self.y, e, F.origin, F.scale, side=-1),      # w z - e t <= r
                   self._halfspace_block(F, g_extra=lambda H, sh: np.zeros(len(sh)))]
         seed = self._seed(F)
         eng = WorkingSetLP(blocks, *self._col_bounds(F, (0.0, np.inf)),
                            seed=[(0, seed), (1, seed), (2, np.arange(self._n_half))], tol=LP_TOL)
         cost = np.zeros(p + 1)
         cost[p] = 1.0
+        levels = sample_levels(N)
+        pool = None                                  # strips some optimum can reach (None: all)
         try:
-            x = eng.minimize_many(cost[None, :], levels=sample_levels(N))[0]
+            for stage in [*levels, None]:
+                rows = pool if stage is None else strided_sample(N, stage)
+                if stage is not None and pool is not None:
+                    rows = np.intersect1d(rows, pool, assume_unique=True)
+                eng.active[0] = eng.active[1] = rows
+                x = eng.minimize_many(cost[None, :])[0]
+                if stage is not None and pool is None:
+                    pool = self._level_screen(eng, F, x, rows)
         except LPStatusError:
             res = Consistency(np.inf, np.full(p, np.nan), np.arange(N), np.zeros(0, dtype=int), np.inf)
         else:
             theta = F.to_theta(x[:p])
-            dz = F.scale * x[:p]
-            rho, mag = np.empty(N), np.empty(N)
-            for sl in _chunks(N):
-                rho[sl] = np.abs(F.r[sl] - W[sl] @ dz) / e[sl]
-                mag[sl] = (np.abs(self.y[sl]) + np.abs(W[sl]) @ np.abs(theta)) / e[sl]
+            rho, mag = level_ratios(W, self.y, e, F.origin, F.scale * x[:p], theta)
             gamma = float(rho.max())
-            tol = 1e-9 + 16 * _EPS * float(mag.max())
+            tol = 1e-9 + 16 * _EPS * mag
             res = Consistency(gamma, theta, np.flatnonzero(rho > 1.0 + tol),
                               np.flatnonzero(rho >= gamma - 1e-7 * max(gamma, 1.0)), float(x[p]), tol)
         self._consistency = res
         return res
+
+    def _level_screen(self, eng: WorkingSetLP, F: _Frame, x: np.ndarray, rows: np.ndarray) -> np.ndarray | None:
+        """The strips that the consistency LP can still need, after its stage on the sample
+        ``rows`` ended at (z, t) = x; the LP ``eng`` gets the box that proves it (column bounds).
+
+        t_lo = t is a lower bound on gamma* (the sample is a relaxation) and t_up, the largest
+        residual ratio at z over every strip (one pass), an upper bound. Every optimal z* lies in
+        {z : |r_k - w_k z| <= e_k t_up for the sample's strips}, whose bounding box (2p LPs on
+        the sample) therefore holds z*: adding it as column bounds keeps gamma*, and then every
+        later LP point has z in that box and t >= t_lo, so a strip with max over the box of
+        |r_k - w_k z| below e_k t_lo (one pass, margin _TOUCH_TOL) is never violated. None when
+        that box is not bounded (the sample does not close P) or adds nothing."""
+        p = self.dim
+        t_lo = float(x[p])
+        t_up = float(max_ratio(self.W, self.y, self.e_max, F.to_theta(x[:p])[None, :])[0]) * (1 + 1e-6)
+        box = WorkingSetLP([StripBlock(self.W, self.y, self.e_max, F.origin, F.scale, level=t_up),
+                            self._halfspace_block(F)], *self._col_bounds(F),
+                           seed=[(0, np.union1d(eng.ws_rows(0), eng.ws_rows(1))), (1, np.arange(self._n_half))],
+                           tol=LP_TOL)
+        box.active[0] = rows
+        try:
+            Z = box.minimize_many(np.vstack([np.eye(p), -np.eye(p)]))
+        except LPStatusError:
+            return None
+        zlo, zhi = np.diag(Z[:p]), np.diag(Z[p:])
+        pad = 1e-6 * (zhi - zlo) + 1e-6                 # far above the LP tolerance (1e-9)
+        zlo, zhi = zlo - pad, zhi + pad
+        eng.set_col_bounds(np.append(np.maximum(zlo, eng.col_lo[:p]), eng.col_lo[p:]),
+                           np.append(np.minimum(zhi, eng.col_hi[:p]), eng.col_hi[p:]))
+        keep = box_reach(self.W, self.y, self.e_max, np.zeros(0, dtype=np.int64), F.to_theta(0.5 * (zlo + zhi)),
+                         F.scale * 0.5 * (zhi - zlo), t_lo, _TOUCH_TOL)
+        return np.flatnonzero(keep)
 
     def is_empty(self) -> bool:
         """True iff the data contradict the bounds (gamma* > 1) or the prior is empty."""
@@ -563,8 +626,9 @@ class Polytope:
                 count()
             Zt = F.to_theta(Z)
             # every later optimum lies in the working set's polytope, inside this stage's
-            # bounding box ([-1, 1]^p in box_frame): a strip containing that box is never violated
-            reach = self._box_reach(box_frame)
+            # bounding box ([-1, 1]^p in box_frame): a strip containing that box is never violated.
+            # The boxes only shrink, so only the strips that reached the last one are tested again
+            reach = self._box_reach(box_frame, reach)
             self._set_frame(box_frame, reach)
             Z = (Zt - box_frame.origin) / box_frame.scale
             F = box_frame
@@ -702,9 +766,10 @@ class Polytope:
         self.bounds()
         eng = self._engine
         F = self._frame
-        G = self.W[rows] * F.scale / F.n[rows, None]
+        r, n = F.rn(rows)
+        G = self.W[rows] * F.scale / n[:, None]
         D = np.vstack([G, -G])
-        side = np.concatenate([(F.r[rows] + self.e_max[rows]) / F.n[rows], -(F.r[rows] - self.e_max[rows]) / F.n[rows]])
+        side = np.concatenate([(r + self.e_max[rows]) / n, -(r - self.e_max[rows]) / n])
         # a side that a known point of P touches is the support itself: no LP
         Zk = (self.found_points() - F.origin) / F.scale
         touched = np.max(D @ Zk.T, axis=1) >= side - LP_TOL if len(Zk) else np.zeros(len(D), dtype=bool)
@@ -733,11 +798,10 @@ class Polytope:
         if rows.ndim != 1 or rows.size == 0 or rows.min() < 0 or rows.max() >= self.n_strips:
             raise InputError(f"rows must be a non-empty list of strip indices in [0, {self.n_strips}).")
         lz, uz = self._strip_extents(rows)
-        F = self._frame
-        n = F.n[rows]
+        r, n = self._frame.rn(rows)
         # w^T theta = w^T origin + n * (unit row)^T z; as residual bounds on r = y - w^T theta
-        r_hi = F.r[rows] - n * (lz - LP_TOL)      # residual at the low end of w^T theta
-        r_lo = F.r[rows] - n * (uz + LP_TOL)
+        r_hi = r - n * (lz - LP_TOL)              # residual at the low end of w^T theta
+        r_lo = r - n * (uz + LP_TOL)
         e = self.e_max[rows]
         r_lo, r_hi = np.maximum(r_lo, -e), np.minimum(r_hi, e)
         half = np.maximum(0.5 * (r_hi - r_lo), 1e-12 * e)
@@ -779,73 +843,109 @@ class Polytope:
 
     def nonredundant(self) -> np.ndarray:
         """Indices of the strips that have at least one non-redundant side (a side whose
-        removal would enlarge P), sorted.
+        removal would enlarge P by more than 1e-8 (1 + |bound|) along its normal, in box units),
+        sorted; P equals the intersection of the strips returned with the prior box and
+        halfspaces, and duplicated strips keep exactly one copy (the last).
 
-        Output-sensitive in three steps: (1) a side that the bounding box of P (``bounds()``)
-        does not reach is redundant; (2) the supports of P along the remaining sides' normals,
-        batched by normal cones (one LP per distinct optimal vertex, not per side), discard
-        every side that P does not touch; (3) each touching side gets one LP with that side
-        relaxed, in sequential elimination, so duplicated strips keep exactly one copy and P
-        equals the intersection of the strips returned with the prior box and halfspaces.
+        Output-sensitive, in the box frame (P spans [-1, 1]^p), sequential elimination in which
+        each side is decided by a certificate when one is at hand and by an LP otherwise:
+
+        1. box screen: a side that the bounding box of P does not reach contains P;
+        2. the supports of P along the remaining sides, batched by normal cones (one LP per
+           distinct optimal vertex, :meth:`WorkingSetLP.supports`): a side that P does not
+           touch is redundant; a side that it touches is active at the vertex v found;
+        3. at v, the side k is redundant iff its normal g_k lies in the cone of the normals of
+           the other sides active at v (LP duality: complementary slackness puts the multipliers
+           of max g_k^T z over P without k on those sides). Non-negative least squares gives the
+           multipliers (Farkas certificate: g_k = sum lambda_j g_j, sum lambda_j b_j <= b_k + tol)
+           or a residual u with g_j^T u <= 0 for every active j: the ray v + t u then leaves P
+           through side k alone, and a point on it beyond k by more than tol that satisfies
+           every other side is the certificate of non-redundancy [Clarkson1994];
+        4. a side with neither certificate gets one LP with that side relaxed (the textbook test).
+
+        LPs: one per distinct vertex of step 2 plus one per undecided side, instead of one per
+        side the bounding box reaches.
         """
         self.bounds()
         F = self._frame
-        blk = self._strip_block(F)
-        lo_s, up_s = blk.lo, blk.up
-        G_all = None
-        # (1) box screen: in the box frame P spans [-1, 1]^p, so |unit row|_1 bounds its reach
-        reach = np.empty(self.n_strips)
-        for sl in _chunks(self.n_strips):
-            reach[sl] = np.abs(self.W[sl] * F.scale).sum(axis=1) / F.n[sl]
-        tol_up = _TOUCH_TOL * (1.0 + np.abs(up_s))
-        tol_lo = _TOUCH_TOL * (1.0 + np.abs(lo_s))
-        up_cand = reach > up_s - tol_up
-        lo_cand = -reach < lo_s + tol_lo
-        # (2) supports along the surviving sides
-        ku, kl = np.flatnonzero(up_cand), np.flatnonzero(lo_cand)
-        if ku.size + kl.size:
-            G_all = self.W[np.concatenate([ku, kl])] * F.scale / F.n[np.concatenate([ku, kl]), None]
-            G_all[ku.size:] *= -1.0
+        reach = self._engine.active[0]
+        cand = self._box_reach(F, None) if reach is None else np.asarray(reach, dtype=np.int64)
+        G, b, opp, strip = self._candidate_sides(F, cand)
+        Hp, hp = self._prior_rows(F)
+        tol = _TOUCH_TOL * (1.0 + np.abs(b))
+        live = np.ones(len(b), dtype=bool)
+        keep = np.zeros(len(b), dtype=bool)
+        if len(b):
+            box = np.full(self.dim, 1.0 + 1e-6)              # P lies in [-1, 1]^p (to LP accuracy)
             try:
-                vals, V, _ = self._engine.supports(G_all)
+                vals, V, which = self._engine.supports(G, below=b - tol, outer=(-box, box))
             except LPStatusError as exc:
                 raise self._status_error(exc.status) from None
             self._found.extend(F.to_theta(V))
-            up_cand[ku] = vals[:ku.size] >= up_s[ku] - tol_up[ku]
-            lo_cand[kl] = vals[ku.size:] >= -lo_s[kl] - tol_lo[kl]
-        # (3) sequential elimination on the touching sides
-        eng = WorkingSetLP([self._strip_block(F), self._halfspace_block(F)], *self._col_bounds(F),
-                           seed=[(0, self._engine.ws_rows(0)), (1, np.arange(self._n_half))], tol=LP_TOL)
-        pool = eng.blocks[0]
-        pool.up[~up_cand] = np.inf
-        pool.lo[~lo_cand] = -np.inf
-        for k in np.flatnonzero(~up_cand | ~lo_cand):
-            if eng.row_of[0][k] >= 0:
-                eng.set_bounds(0, k, pool.lo[k], pool.up[k])
-        keep = np.zeros(self.n_strips, dtype=bool)
-        for k in np.flatnonzero(up_cand | lo_cand):
-            g = self.W[k] * F.scale / F.n[k]
-            for side in (1.0, -1.0):
-                if (side > 0 and not up_cand[k]) or (side < 0 and not lo_cand[k]):
-                    continue
-                bound = up_s[k] if side > 0 else lo_s[k]
-                if side > 0:
-                    eng.set_bounds(0, k, pool.lo[k], up_s[k] + 1.0)
-                else:
-                    eng.set_bounds(0, k, lo_s[k] - 1.0, pool.up[k])
-                try:
-                    x = eng.minimize_many(-side * g[None, :])[0]
-                except LPStatusError as exc:
-                    raise self._status_error(exc.status) from None
-                v = side * float(g @ x)
-                if v > side * bound + _TOUCH_TOL * (1.0 + abs(bound)):
-                    keep[k] = True
-                    eng.set_bounds(0, k, lo_s[k] if side < 0 else pool.lo[k], up_s[k] if side > 0 else pool.up[k])
-                elif side > 0:
-                    eng.set_bounds(0, k, pool.lo[k], np.inf)
-                else:
-                    eng.set_bounds(0, k, -np.inf, pool.up[k])
-        return np.flatnonzero(keep)
+            live &= (which >= 0) & (vals >= b - tol)
+            todo = []
+            for v in np.unique(which[live]):
+                ks = np.flatnonzero(live & (which == v))
+                todo += _vertex_certificates(ks, V[v], G, b, Hp, hp, tol, live, keep)
+            keep[todo] = self._relaxed_lps(G, b, Hp, hp, tol, live, keep, np.asarray(todo, dtype=np.int64))
+        return np.unique(strip[keep])
+
+    def _candidate_sides(self, F: _Frame, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The sides of strips ``rows`` that reach the box [-1, 1]^p of frame F, as unit rows
+        g^T z <= b, ordered by strip, upper side first: (G (m, p), b (m,), opp (m,), strip
+        index (m,)), opp the bound of -g^T z from the same strip's other side."""
+        r, n = F.rn(rows)
+        A = self.W[rows] * F.scale / n[:, None]
+        up, lo = (r + self.e_max[rows]) / n, (r - self.e_max[rows]) / n
+        reach = np.abs(A).sum(axis=1)
+        nonzero = np.any(A != 0, axis=1)
+        u = nonzero & (reach > up - _TOUCH_TOL * (1.0 + np.abs(up)))
+        lw = nonzero & (-reach < lo + _TOUCH_TOL * (1.0 + np.abs(lo)))
+        G = np.stack([A, -A], axis=1).reshape(-1, A.shape[1])
+        b = np.stack([up, -lo], axis=1).ravel()
+        opp = np.stack([-lo, up], axis=1).ravel()
+        sel = np.stack([u, lw], axis=1).ravel()
+        return G[sel], b[sel], opp[sel], np.repeat(rows, 2)[sel]
+
+    def _prior_rows(self, F: _Frame) -> tuple[np.ndarray, np.ndarray]:
+        """The prior box sides and halfspaces in frame F as unit rows H z <= h."""
+        p = self.dim
+        rows, rhs = [np.zeros((0, p))], [np.zeros(0)]
+        zlo, zhi = self._col_bounds(F)
+        I = np.eye(p)
+        rows += [I[np.isfinite(zhi)], -I[np.isfinite(zlo)]]
+        rhs += [zhi[np.isfinite(zhi)], -zlo[np.isfinite(zlo)]]
+        if self.halfspaces is not None:
+            H, h = self.halfspaces
+            Hz = H * F.scale
+            nrm = np.linalg.norm(Hz, axis=1)
+            rows.append(Hz / nrm[:, None])
+            rhs.append((h - H @ F.origin) / nrm)
+        return np.vstack(rows), np.concatenate(rhs)
+
+    def _relaxed_lps(self, G, b, Hp, hp, tol, live, keep, todo) -> np.ndarray:
+        """Step 4 of :meth:`nonredundant`: for each side h of ``todo`` in turn, max g_h^T z over
+        the other live sides and the prior with side h relaxed by 1 (one LP); h is kept if the
+        maximum exceeds b_h + tol_h, else it leaves ``live`` (sequential elimination). Returns a
+        boolean mask over ``todo``."""
+        out = np.zeros(todo.size, dtype=bool)
+        if todo.size == 0:
+            return out
+        n_side, p = len(b), G.shape[1]
+        eng = WorkingSetLP([Block(G, np.full(n_side, -np.inf), np.where(live, b, np.inf)),
+                            Block(Hp, np.full(len(hp), -np.inf), hp)], np.full(p, -np.inf), np.full(p, np.inf),
+                           seed=[(0, np.flatnonzero(keep)), (1, np.arange(len(hp)))], tol=LP_TOL)
+        for i, h in enumerate(todo):
+            eng.set_bounds(0, h, -np.inf, b[h] + 1.0)
+            eng.add_rows(0, np.array([h]))              # bounds the objective from the start
+            try:
+                x = eng.minimize_many(-G[h][None, :])[0]
+            except LPStatusError as exc:
+                raise self._status_error(exc.status) from None
+            out[i] = float(G[h] @ x) > b[h] + tol[h]
+            eng.set_bounds(0, h, -np.inf, b[h] if out[i] else np.inf)
+            live[h] = out[i]
+        return out
 
     # ------------------------------------------------------------------ vertices, volume
     def _scaled_halfspaces(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -965,3 +1065,46 @@ def _chebyshev(H: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, float]:
     except LPStatusError as exc:
         raise SolverError(f"Chebyshev-centre LP reported {exc.status}.") from None
     return x[:n], float(x[n])
+
+
+def _vertex_certificates(ks, v, G, b, Hp, hp, tol, live, keep) -> list[int]:
+    """Step 3 of :meth:`Polytope.nonredundant` for the sides ``ks`` (unit rows G z <= b), all
+    active at the point v of P (prior rows Hp z <= hp; P inside [-1, 1]^p). In order: a side
+    with a Farkas certificate from the other live sides active at v leaves ``live``; a side
+    with a point beyond it by more than tol that satisfies every other live side, the prior
+    and [-1, 1]^p (which every screened-out side contains) goes to ``keep``. Returns the sides
+    with neither certificate."""
+    p = G.shape[1]
+    s, sp = b - G @ v, hp - Hp @ v                       # slacks at v
+    ptol = _TOUCH_TOL * (1.0 + np.abs(hp))
+    prior_act = np.flatnonzero(sp <= ptol)
+    # rays stay in [-1, 1]^p: rows of every live side, the prior and that box
+    box = np.vstack([np.eye(p), -np.eye(p)])
+    undecided = []
+    for k in ks:
+        act = np.flatnonzero(live & (s <= tol))
+        act = act[act != k]
+        M = np.vstack([G[act], Hp[prior_act]])
+        lam, _ = scipy.optimize.nnls(M.T, G[k]) if len(M) else (np.zeros(0), 0.0)
+        u = G[k] - M.T @ lam                             # the residual: g_j^T u <= 0 on M's rows
+        if np.abs(u).max() <= 1e-11 and lam @ np.concatenate([b[act], hp[prior_act]]) <= b[k] + tol[k]:
+            live[k] = False                              # g_k in the cone: redundant
+            continue
+        if np.abs(u).max() <= 1e-11:
+            undecided.append(int(k))
+            continue
+        others = np.flatnonzero(live)
+        others = others[others != k]
+        R = np.vstack([G[others], Hp, box])
+        slack = np.concatenate([s[others], sp, 1.0 - box @ v])
+        rate = R @ u
+        # rows active at v with a rate at rounding level are the cone's own (KKT: rate <= 0)
+        rate[np.concatenate([np.isin(others, act), np.isin(np.arange(len(hp)), prior_act), np.zeros(2 * p, bool)])
+             & (rate <= 1e-12 * np.linalg.norm(u))] = 0.0
+        up = rate > 0
+        t = np.min(np.maximum(slack[up], 0.0) / rate[up]) if up.any() else np.inf
+        if np.isfinite(t) and t * float(G[k] @ u) - s[k] > tol[k]:
+            keep[k] = True                               # v + t u: beyond k alone, by more than tol
+        else:
+            undecided.append(int(k))
+    return undecided
