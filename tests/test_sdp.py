@@ -226,3 +226,27 @@ def test_min_volume_bracket_p14():
     assert br.lower <= br.upper
     assert np.all(br.points_ellipsoid.contains(P.bounds().vertices(), rtol=1e-6))
     assert br.points_gap <= 1e-6 * 14
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_john_outer_contains_a_simplex(seed):
+    """On a triangle p x the exact inner ellipsoid passes through every vertex (John's bound is
+    tight for a simplex), so the solver's near-optimal inner ellipsoid leaves vertices just
+    outside: john_outer must still contain every vertex (enumerated by halfspace intersection,
+    scipy/Qhull) and never raise for p <= 6. The lesson-1 triangle of the teaching suite is the
+    case that raised before."""
+    rng = np.random.default_rng(seed)
+    V = rng.normal(size=(3, 2))
+    c = V.mean(axis=0)
+    W, y, e = [], [], []
+    for i in range(3):                       # one strip per side, the opposite vertex on its far edge
+        a, b = V[i], V[(i + 1) % 3]
+        n = np.array([b[1] - a[1], a[0] - b[0]])
+        n /= np.linalg.norm(n)
+        near, far = n @ a, n @ V[(i + 2) % 3]
+        W.append(n), y.append(0.5 * (near + far)), e.append(0.5 * abs(near - far))
+    P = Polytope(np.array(W), np.array(y), np.array(e))
+    assert P.contains(c)
+    john = sdp.john_outer(P)
+    assert np.all(john.ellipsoid.mahalanobis2(P.vertices()) <= 1 + 1e-12)
+    assert np.all(john.ellipsoid.mahalanobis2(V) <= 1 + 1e-9)

@@ -486,22 +486,31 @@ def john_outer(P: Polytope, allow_fallback: bool = False) -> SDPResult:
     """The maximum-volume inscribed ellipsoid scaled by p about its centre (John 1948: it
     contains P; factor p, not sqrt(p), since P is not centrally symmetric; [refs §SDP]).
 
-    The guarantee holds for the exact inscribed ellipsoid; the numerical one is checked on the
-    known vertices of P (all for p <= 6, else the LP-bound ones) and enlarged to cover them if
-    a rounding error left one outside (at most 1e-4 in squared radius, else SolverError).
+    The guarantee holds for the exact inscribed ellipsoid; the numerical one is near-optimal in
+    log det, which can leave its shape off by about the square root of the solver's tolerance (a
+    simplex, where p x the inner ellipsoid passes through every vertex, shows it). So the scaled
+    ellipsoid is checked on the known vertices of P and enlarged to cover them: for p <= 6 these
+    are all the vertices, so the enlarged ellipsoid contains P = conv(vertices) whatever the
+    enlargement; above, only the LP-bound and LP-found vertices are known and an enlargement
+    beyond 1e-4 in squared radius raises SolverError (another vertex could be further out).
+    ``info["vertex_repair"]``: the squared-radius factor applied (1 when none).
     """
     t0 = time.perf_counter()
     inner = inner_ellipsoid(P, allow_fallback=allow_fallback)
     ell = inner.ellipsoid.scaled(P.dim)
     V = _known_vertices(P)
     d2 = float(np.max(ell.mahalanobis2(V)))
-    if d2 > 1 + _MAX_REPAIR:
+    all_vertices = P.dim <= MAX_VERTEX_DIM
+    if d2 > 1 + _MAX_REPAIR and not all_vertices:
         raise SolverError(f"john_outer: a vertex of P lies outside p x the inner ellipsoid (squared "
-                          f"distance {d2:.6g}); the inner ellipsoid solve was inaccurate.")
+                          f"distance {d2:.6g}) and P has too many dimensions ({P.dim} > {MAX_VERTEX_DIM}) to "
+                          "enumerate its vertices and cover them all; the inner ellipsoid solve was inaccurate. "
+                          "Use outer_ellipsoid (verified by LPs) instead.")
     if d2 > 1:
         ell = Ellipsoid(ell.center, d2 * ell.shape)
     return SDPResult(ell, inner.status, time.perf_counter() - t0, inner.strips, inner.solver,
-                     {**inner.info, "vertex_repair": max(d2, 1.0), "vertices_checked": len(V)})
+                     {**inner.info, "vertex_repair": max(d2, 1.0), "vertices_checked": len(V),
+                      "all_vertices_checked": all_vertices})
 
 
 def enclosing_ellipsoid(points, allow_fallback: bool = False) -> SDPResult:
