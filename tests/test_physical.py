@@ -1,5 +1,5 @@
 """Physical consistency: each model's constraints, the physically consistent feasible set, and
-physically consistent estimates (issue 18).
+physically consistent estimates.
 
 Independent references: the constraints against their derivations (random rigid bodies built
 from point masses, whose pseudo-inertia is the sum of m [r; 1][r; 1]^T; random physical arms
@@ -20,6 +20,7 @@ from boundid.estimators import OBE, ols
 from boundid.estimators.physical import physical_intersection, physical_least_squares
 from boundid.models import BaseParameterModel, DirectDriveArm, H4Robot, H4Truth, UrdfRobot
 from boundid.models.direct_drive import PHYSICAL
+from boundid.sets import Box
 from boundid.sets.constraints import pseudo_inertia
 from boundid.sets.physical import ConstrainedEllipsoid, PhysicalSet, physical_margin
 
@@ -385,14 +386,14 @@ def test_physical_least_squares_side_by_side():
     print(table.to_string(float_format=lambda v: f"{v: .4g}"))
     assert raw.center[6] < 0 and est.center[6] == pytest.approx(0.0, abs=1e-7)
     assert "b2 >= 0" in est.info["active_constraints"] and not est.info["unconstrained_consistent"]
-    assert np.all(np.isnan(est.info["std_err"]))
+    assert np.all(np.isnan(est.statistics.std_err))
     x, theta_v, parts = cvxpy_parts(cons, 9)
     cp.Problem(cp.Minimize(cp.sum_squares(y - W @ theta_v)), parts).solve(solver=cp.CLARABEL)
     np.testing.assert_allclose(est.center, x.value, atol=1e-6 * np.abs(x.value).max())
     lo, hi = est.intervals
     assert np.all(lo >= raw.intervals[0]) and np.all(hi <= raw.intervals[1]) and lo[6] == 0
     slo, shi = est.info["set_intervals"]
-    elo, ehi = raw.ellipsoid.intervals()
+    elo, ehi = raw.set.intervals()
     assert np.all((slo <= est.center + 1e-9) & (est.center <= shi + 1e-9)) and slo[6] >= 0
     assert np.all(slo >= elo - 1e-9) and np.all(shi <= ehi + 1e-9)
     wls_est = physical_least_squares(W, y, cons, groups=np.tile([0, 1], 150), names=arm.param_names)
@@ -405,13 +406,13 @@ def test_obe_intersected_with_physics():
     cvxpy problem (quadratic form <= 1 plus the constraints)."""
     arm, W, y, theta = arm_data(N=100, e=8.0, seed=12)
     cons = arm.physical_constraints()
-    obe = OBE.from_prior(np.zeros(9), np.full(9, 100.0), names=arm.param_names).fit(W, y, 8.0)
+    obe = OBE(9, prior=Box.from_center(np.zeros(9), np.full(9, 100.0)), names=arm.param_names).fit(W, y, 8.0)
     est = physical_intersection(obe, cons)
     lo, hi = est.intervals
     assert est.kind == obe.kind == "guaranteed" and est.contains(theta)
     assert np.all(lo >= obe.intervals[0] - 1e-12) and np.all(hi <= obe.intervals[1] + 1e-12)
     assert np.any(obe.intervals[0][1:] < 0) and np.all(lo[1:] >= 0)
-    E = obe.ellipsoid
+    E = obe.set
     x, th, parts = cvxpy_parts(cons, 9)
     parts.append(cp.quad_form(th - E.center, E.information) <= 1)
     for j in (0, 4, 6):
@@ -424,8 +425,8 @@ def test_obe_intersected_with_physics():
 def test_constrained_ellipsoid_is_a_convex_set():
     """contains, support, project and boundary agree with each other and with the intervals."""
     arm, W, y, theta = arm_data(N=100, e=8.0, seed=12)
-    obe = OBE.from_prior(np.zeros(9), np.full(9, 100.0)).fit(W, y, 8.0)
-    S = ConstrainedEllipsoid(obe.ellipsoid, arm.physical_constraints())
+    obe = OBE(9, prior=Box.from_center(np.zeros(9), np.full(9, 100.0))).fit(W, y, 8.0)
+    S = ConstrainedEllipsoid(obe.set, arm.physical_constraints())
     lo, hi = S.intervals()
     assert S.contains(theta) and not S.contains(np.where(np.arange(9) == 6, -0.01, theta))
     assert S.support(np.eye(9)[4]) == pytest.approx(hi[4], rel=1e-7)

@@ -89,7 +89,7 @@ def test_readme_command_runs_from_another_folder(cmd, user_folder):
     assert res.returncode == 0, f"{cmd}: exit {res.returncode}\n{res.stderr[-2000:]}"
     if "--json" in cmd:
         out = _strict_json(res.stdout)
-        assert out["contains_polytope"] is True and isinstance(out["max_mahalanobis2"], float)
+        assert out["contains_polytope"] is True and isinstance(out["max_gauge"], float)
     if "--version" in cmd:
         assert re.fullmatch(r"boundid \d+\.\d+\.\d+\S*\n", res.stdout)
 

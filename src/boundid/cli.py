@@ -209,7 +209,7 @@ def certificate_json(cert) -> dict:
         "vertices_checked": int(cert.n_vertices),
         "vertex_kind": cert.vertex_kind,
         "vertices_outside": int(cert.n_outside),
-        "max_mahalanobis2": _number(cert.max_mahalanobis2),
+        "max_gauge": _number(cert.max_gauge),
         "width_ratio": {k: _number(v) for k, v in zip(names, cert.width_ratio, strict=True)},
         "mean_width_ratio": _number(cert.width_ratio.mean()),
         "max_width_ratio": _number(cert.width_ratio.max()),

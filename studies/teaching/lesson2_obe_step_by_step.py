@@ -159,7 +159,8 @@ for k, s in enumerate(steps):
 # with the exact polygon (LP bounds, SDP reference ellipses).
 
 # %%
-fits = {c: OBE(2, prior=Box.from_center(prior, prior_half), criterion=c, names=("J", "mgl")).fit(W[clean], y[clean], E_MAX)
+prior_box = Box.from_center(prior, prior_half)
+fits = {c: OBE(2, prior=prior_box, criterion=c, names=("J", "mgl")).fit(W[clean], y[clean], E_MAX)
         for c in ("volume", "trace")}
 crit_rows = {}
 for c, est in fits.items():

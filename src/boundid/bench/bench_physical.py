@@ -13,10 +13,11 @@ from boundid.estimators import OBE, ols
 from boundid.estimators.physical import physical_intersection, physical_least_squares
 from boundid.models import BaseParameterModel
 from boundid.models.direct_drive import PHYSICAL
+from boundid.sets import Box
 from boundid.sets.physical import PhysicalSet, column_bounds
 
 GOALS = """
-Physically consistent exact bounds (issue 18): min and max of every parameter over
+Physically consistent exact bounds: min and max of every parameter over
 {strips} ∩ {prior box} ∩ {the model's physical constraints}, against the plain exact (LP) bounds
 of the same regression, on:
 
@@ -116,12 +117,12 @@ def _estimate_rows(case, W, y, e, cons, box, names):
     est = physical_least_squares(W, y, cons, names=names)
     t = time.perf_counter() - t0
     raw = ols(W, y, names=names)
-    rows.append(_row(case, "OLS physical", time_s=t, plain_time_s=raw.info["time_s"],
+    rows.append(_row(case, "OLS physical", time_s=t, plain_time_s=raw.time_s,
                      detail=f"raw centre physical: {est.info['unconstrained_consistent']}; active constraints: "
                             f"{', '.join(est.info['active_constraints']) or 'none'}"))
     center, half = 0.5 * (box[0] + box[1]), 0.5 * (box[1] - box[0])
     t0 = time.perf_counter()
-    obe = OBE.from_prior(center, half, names=names).fit(W, y, e)
+    obe = OBE(len(center), prior=Box.from_center(center, half), names=names).fit(W, y, e)
     t_obe = time.perf_counter() - t0
     t0 = time.perf_counter()
     oi = physical_intersection(obe, cons)

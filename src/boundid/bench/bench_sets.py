@@ -46,7 +46,7 @@ Goals (study scale):
   reference in the same run is the previous method (one LP per candidate side for redundancy
   removal, 2 LPs per non-redundant strip for tightening, then one S-procedure on all of them):
   `ratio` = reference time / our time; `log_vol_per_axis` of both (ours may only be smaller).
-* Redundancy removal, output-sensitive (issue 19, goal 1): `nonredundant()` on each study's
+* Redundancy removal, output-sensitive (goal 1 of the study-scale speed work): `nonredundant()` on each study's
   regression against the previous method in the same run (one LP per side the LP box reaches,
   sequential elimination): `ratio` = reference time / our time; `detail` says whether both
   return the same strips.

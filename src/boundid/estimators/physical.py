@@ -23,12 +23,13 @@ set estimates intersected with the physical set.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
 from boundid._validation import as_regression
 from boundid.errors import InfeasibleDataError, InputError
-from boundid.estimators.estimate import Estimate
+from boundid.estimators.estimate import Estimate, Statistics
 from boundid.estimators.least_squares import ols, wls
 from boundid.sets.constraints import PhysicalConstraints
 from boundid.sets.ellipsoid import Ellipsoid
@@ -53,12 +54,12 @@ def physical_least_squares(W, y, constraints: PhysicalConstraints, groups=None, 
     the unconstrained confidence ellipsoid at ``level`` intersected with the physical set
     (:class:`ConstrainedEllipsoid`, its exact bounds in ``info["set_intervals"]``) and whose
     intervals are the unconstrained Student-t ones cut by :func:`column_bounds` (module
-    docstring). ``info``: n_samples, dof,
-    sigma and rss at the constrained solution (of the weighted problem for WLS), condition_number,
-    active_constraints (labels), standard (the standard parameters x at the solution when lifted),
-    unconstrained (the OLS/WLS centre) and unconstrained_consistent (whether it is physical);
-    std_err, rel_std_pct and cov only when no constraint is active (else NaN / None, see the
-    module docstring, and ``statistics`` says so); WLS adds its sigma_groups.
+    docstring). ``statistics``: dof and sigma at the constrained solution (of the weighted problem
+    for WLS), the unconstrained condition number; std_err, rel_std_pct and cov only when no
+    constraint is active (else NaN, see the module docstring; ``info["statistics"]`` says which).
+    ``info``: rss, active_constraints (labels), standard (the standard parameters x at the solution
+    when lifted), unconstrained (the OLS/WLS centre) and unconstrained_consistent (whether it is
+    physical); WLS adds its sigma_groups.
     Raises InfeasibleDataError if no physically consistent vector lies in the confidence ellipsoid.
     """
     t0 = time.perf_counter()
@@ -75,8 +76,8 @@ def physical_least_squares(W, y, constraints: PhysicalConstraints, groups=None, 
     theta, x, active = constrained_fit(Ws, ys, constraints)
     res = ys - Ws @ theta
     rss = float(res @ res)
-    dof = raw.info["dof"]
-    region = ConstrainedEllipsoid(raw.ellipsoid, constraints)
+    dof = raw.statistics.dof
+    region = ConstrainedEllipsoid(raw.set, constraints)
     try:
         region.intervals()
     except InfeasibleDataError:
@@ -87,26 +88,30 @@ def physical_least_squares(W, y, constraints: PhysicalConstraints, groups=None, 
     clo, chi = column_bounds(constraints)
     lo, hi = np.maximum(raw.intervals[0], clo), np.minimum(raw.intervals[1], chi)
     margin = physical_margin(constraints, raw.center)[0]
-    info = {"guaranteed": False, "n_samples": N, "dof": dof, "sigma": float(np.sqrt(rss / dof)), "rss": rss,
-            "condition_number": raw.info["condition_number"], "active_constraints": active,
-            "unconstrained": raw.center, "unconstrained_consistent": bool(margin >= 0.0),
-            "set_intervals": region.intervals(), "set_certificate": region.info.get("certificate", "")}
+    sigma = float(np.sqrt(rss / dof))
+    info = {"rss": rss, "active_constraints": active, "unconstrained": raw.center,
+            "unconstrained_consistent": bool(margin >= 0.0), "set_intervals": region.intervals(),
+            "set_certificate": region.info.get("certificate", "")}
     if constraints.is_lifted:
         info["standard"] = x
+    st = raw.statistics
     if active:
-        info.update(std_err=np.full(p, np.nan), rel_std_pct=np.full(p, np.nan), cov=None,
-                    statistics=("constraints active at the solution: the covariance and Student-t intervals of "
-                                "least squares do not describe this truncated estimator; the set is the "
-                                f"unconstrained {100 * level:g} % ellipsoid ∩ physics"))
+        nan = np.full(p, np.nan)
+        statistics = Statistics(cov=np.full((p, p), np.nan), std_err=nan, rel_std_pct=nan.copy(), dof=dof,
+                                sigma=sigma, condition_number=st.condition_number, noise_variance=st.noise_variance)
+        info["statistics"] = ("constraints active at the solution: the covariance and Student-t intervals of least "
+                              "squares do not describe this truncated estimator; the set is the unconstrained "
+                              f"{100 * level:g} % ellipsoid ∩ physics")
     else:
-        info.update(std_err=raw.info["std_err"], rel_std_pct=raw.info["rel_std_pct"], cov=raw.info["cov"],
-                    statistics="no constraint active: the same estimate and statistics as unconstrained")
+        statistics = Statistics(cov=st.cov, std_err=st.std_err, rel_std_pct=st.rel_std_pct, dof=dof, sigma=sigma,
+                                condition_number=st.condition_number, noise_variance=st.noise_variance)
+        info["statistics"] = "no constraint active: the same estimate and statistics as unconstrained"
     for key in ("sigma_groups", "groups", "sigma_group_values"):
         if key in raw.info:
             info[key] = raw.info[key]
-    info["time_s"] = time.perf_counter() - t0
-    return Estimate(method=f"{raw.method} (physical)", center=theta, ellipsoid=None, intervals=(lo, hi),
-                    kind="statistical", level=raw.level, names=raw.names, info=info, set=region)
+    return Estimate(method=f"{raw.method} (physical)", center=theta, set=region, intervals=(lo, hi),
+                    kind="statistical", level=raw.level, names=raw.names, n_samples=N,
+                    time_s=time.perf_counter() - t0, statistics=statistics, info=info)
 
 
 def physical_intersection(estimate: Estimate, constraints: PhysicalConstraints) -> Estimate:
@@ -135,7 +140,5 @@ def physical_intersection(estimate: Estimate, constraints: PhysicalConstraints) 
     info = {**estimate.info, "raw_center": estimate.center, "raw_intervals": estimate.intervals,
             "raw_consistent": bool(physical_margin(constraints, estimate.center)[0] >= 0.0),
             "physical": {**region.info, "time_s": time.perf_counter() - t0}}
-    return Estimate(method=f"{estimate.method} ∩ physics", center=region.extreme_points.mean(axis=0),
-                    ellipsoid=None, intervals=(lo, hi), kind=estimate.kind, level=estimate.level,
-                    names=estimate.names, history=estimate.history, outliers=estimate.outliers,
-                    outlier_residuals=estimate.outlier_residuals, info=info, set=region)
+    return replace(estimate, method=f"{estimate.method} ∩ physics", center=region.extreme_points.mean(axis=0),
+                   set=region, intervals=(lo, hi), info=info)

@@ -4,7 +4,7 @@
 artist a reader has to read: each Axes box, its titles and texts, the tick labels actually drawn
 (those inside the view limits), the axis labels and offset texts, every legend (of an Axes or of
 the figure) and the figure's own texts (suptitle, supxlabel ...). It reports each one that reaches
-outside the figure (it would be cut off in the PNG: the clipped-legend bug of issue 14) and each
+outside the figure (it would be cut off in the PNG: a clipped legend was a real defect of the study pages) and each
 pair of tick labels of one axis that overlap or touch ("0.25250.2550"). Texts clipped to their Axes
 (``clip_on=True``) are skipped: only their part inside the Axes is drawn.
 
