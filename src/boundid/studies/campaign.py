@@ -24,6 +24,14 @@ Execution: ``dask.distributed`` -- a ``LocalCluster`` of K single-threaded worke
 existing cluster at ``scheduler`` ("tcp://host:port"); ``workers=0`` runs in this process (no
 cluster; for tests and debugging). Dask re-runs a task whose worker died on another worker. The
 workers write the files themselves: on a remote cluster ``out`` must be a folder they all share.
+
+Speed (docs/scaling.md, reports/benchmarks/campaign.md): the replicate is the unit of parallelism,
+so each one runs with ONE BLAS/OpenMP thread (``threadpoolctl``; a LocalCluster's workers also
+start with OMP/OPENBLAS/MKL/NUMBA_NUM_THREADS=1): on a shared 2-core machine a multi-threaded BLAS
+made the in-process loop 3x slower, and K workers would oversubscribe the cores. A LocalCluster's
+workers start without dask's MALLOC_TRIM_THRESHOLD_ (:func:`local_cluster`). Each worker imports the
+replicate's modules once, when it joins (:func:`connect`); the numba kernels (``cache=True``) load
+from their on-disk cache then or at the worker's first replicate (~0.2 s), never compile anew.
 """
 
 from __future__ import annotations
@@ -38,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from threadpoolctl import threadpool_limits
 
 from boundid.errors import RUN_FAILURES, InputError, StudyError
 from boundid.studies.config import StudyConfig
@@ -147,7 +156,8 @@ def run_replicate(cfg: StudyConfig, scenario: Scenario, replicate: int, data_dir
     path = replicate_path(data_dir, scenario.name, config_hash(campaign_config(cfg, scenario)), replicate)
     if path.exists():
         return str(path)
-    table = replicate_rows(cfg, scenario, replicate)
+    with threadpool_limits(limits=1):  # one replicate per core: a multi-threaded BLAS only oversubscribes
+        table = replicate_rows(cfg, scenario, replicate)
     tmp = data_dir / f".{path.stem}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
     try:
         table.to_parquet(tmp, index=False)
@@ -270,14 +280,56 @@ def run_campaign(cfg: StudyConfig, replicates: int, scenarios: tuple[Scenario, .
                           [(sc.name, r) for sc, r in done], aside, time.perf_counter() - t0, n_workers)
 
 
-def _run_dask(cfg, todo, data_dir: Path, workers: int, scheduler: str | None, computed: list) -> int:
-    from dask.distributed import Client, LocalCluster, as_completed
+#: environment of a LocalCluster's worker processes, set before they import numpy or numba
+WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
 
-    if scheduler is not None:
-        client, cluster = Client(scheduler), None
-    else:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
-        client = Client(cluster)
+
+def local_cluster(workers: int):
+    """A dask ``LocalCluster`` of ``workers`` single-threaded worker processes, one BLAS/numba thread each.
+
+    Dask's default environment for its workers also sets MALLOC_TRIM_THRESHOLD_=65536, which turns off
+    glibc's adaptive mmap threshold: every array above 128 kB is then mapped and unmapped anew, and a
+    replicate costs 25 % more CPU (reports/benchmarks/campaign.md); the workers start without it.
+    """
+    import dask
+    from dask.distributed import LocalCluster
+
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                            env=WORKER_ENV)
+
+
+def _warm_plugin():
+    """A dask WorkerPlugin that imports the replicate's modules when a worker joins the cluster: their
+    numba kernels compiled with a signature load from the disk cache then; the others (a further
+    ~0.2 s, measured) load at the worker's first replicate."""
+    from dask.distributed import WorkerPlugin
+
+    class WarmUp(WorkerPlugin):
+        name = "boundid-warm-up"
+
+        def setup(self, worker):
+            import boundid.studies.campaign  # noqa: F401  (estimators, sets, models, experiments)
+
+    return WarmUp()
+
+
+def connect(scheduler: str | None = None, workers: int = 1):
+    """(client, cluster): a Client of the cluster at ``scheduler``, else of a new :func:`local_cluster`
+    (then ``cluster`` is it, for the caller to close); every worker, present and future, imports the
+    replicate's modules when it joins (:func:`_warm_plugin`)."""
+    from dask.distributed import Client
+
+    cluster = None if scheduler is not None else local_cluster(workers)
+    client = Client(scheduler if scheduler is not None else cluster)
+    client.register_plugin(_warm_plugin())
+    return client, cluster
+
+
+def _run_dask(cfg, todo, data_dir: Path, workers: int, scheduler: str | None, computed: list) -> int:
+    from dask.distributed import as_completed
+
+    client, cluster = connect(scheduler, workers)
     try:
         # cfg goes with each task (a few kB), not scattered: scattered data dies with its worker,
         # and the tasks that need it would then be cancelled instead of re-run elsewhere
