@@ -30,13 +30,14 @@ so each one runs with ONE BLAS/OpenMP thread (``threadpoolctl``; a LocalCluster'
 start with OMP/OPENBLAS/MKL/NUMBA_NUM_THREADS=1): on a shared 2-core machine a multi-threaded BLAS
 made the in-process loop 3x slower, and K workers would oversubscribe the cores. A LocalCluster's
 workers start without dask's MALLOC_TRIM_THRESHOLD_ (:func:`local_cluster`). Each worker imports the
-replicate's modules once, when it joins (:func:`connect`); the numba kernels (``cache=True``) load
-from their on-disk cache then or at the worker's first replicate (~0.2 s), never compile anew.
+replicate's modules and loads the numba kernels (``cache=True``: from their on-disk cache, never
+compiled anew) once, when it joins (:func:`connect`, :func:`warm_up`), not in its first replicate.
 """
 
 from __future__ import annotations
 
 import hashlib
+import logging
 import os
 import time
 import uuid
@@ -299,37 +300,58 @@ def local_cluster(workers: int):
                             env=WORKER_ENV)
 
 
-def _warm_plugin():
-    """A dask WorkerPlugin that imports the replicate's modules when a worker joins the cluster: their
-    numba kernels compiled with a signature load from the disk cache then; the others (a further
-    ~0.2 s, measured) load at the worker's first replicate."""
+_WARMED: set[str] = set()  # the configurations this process has warmed up for
+
+
+def warm_up(cfg: StudyConfig) -> None:
+    """Load the kernels a replicate of ``cfg`` uses, once per process and configuration: one replicate
+    of the study with its experiment cut to a fifth (whole samples), results discarded. The numba
+    kernels compiled without a signature load from their disk cache at their first call (~0.2-0.3 s
+    in all); here, not in the worker's first real replicate. A configuration that cannot run so
+    short is only logged: its real replicates report their own failures."""
+    chash = config_hash(cfg)
+    if chash in _WARMED:
+        return
+    _WARMED.add(chash)
+    h = cfg.experiment.sample_period_s
+    short = replace(cfg, experiment=replace(cfg.experiment, duration_s=max(1, round(cfg.experiment.duration_s
+                                                                                   / 5 / h)) * h))
+    try:
+        with threadpool_limits(limits=1):
+            replicate_rows(short, Scenario("study"), 0)
+    except Exception as exc:  # a warm-up only: nothing of it is kept
+        logging.getLogger(__name__).warning("campaign warm-up skipped (%s: %s)", type(exc).__name__, exc)
+
+
+def _warm_plugin(cfg: StudyConfig):
+    """A dask WorkerPlugin that warms each worker up for ``cfg`` (:func:`warm_up`) when it joins."""
     from dask.distributed import WorkerPlugin
 
     class WarmUp(WorkerPlugin):
         name = "boundid-warm-up"
 
         def setup(self, worker):
-            import boundid.studies.campaign  # noqa: F401  (estimators, sets, models, experiments)
+            warm_up(cfg)
 
     return WarmUp()
 
 
-def connect(scheduler: str | None = None, workers: int = 1):
+def connect(cfg: StudyConfig, scheduler: str | None = None, workers: int = 1):
     """(client, cluster): a Client of the cluster at ``scheduler``, else of a new :func:`local_cluster`
-    (then ``cluster`` is it, for the caller to close); every worker, present and future, imports the
-    replicate's modules when it joins (:func:`_warm_plugin`)."""
+    (then ``cluster`` is it, for the caller to close); every worker, present and future, warmed up
+    for ``cfg`` (:func:`warm_up`) before its first replicate."""
     from dask.distributed import Client
 
     cluster = None if scheduler is not None else local_cluster(workers)
     client = Client(scheduler if scheduler is not None else cluster)
-    client.register_plugin(_warm_plugin())
+    client.register_plugin(_warm_plugin(cfg))
     return client, cluster
 
 
 def _run_dask(cfg, todo, data_dir: Path, workers: int, scheduler: str | None, computed: list) -> int:
     from dask.distributed import as_completed
 
-    client, cluster = connect(scheduler, workers)
+    client, cluster = connect(cfg, scheduler, workers)
     try:
         # cfg goes with each task (a few kB), not scattered: scattered data dies with its worker,
         # and the tasks that need it would then be cancelled instead of re-run elsewhere
