@@ -32,6 +32,9 @@ _E3 = np.ascontiguousarray(DOP853.E3, dtype=np.float64)
 _E5 = np.ascontiguousarray(DOP853.E5, dtype=np.float64)
 _EXPONENT = -1.0 / (DOP853.error_estimator_order + 1)
 SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0  # scipy.integrate._ivp.rk
+#: status of an interval: done; the step size fell below 10 ulp of t (solve_ivp's failure); the state
+#: or its derivative became inf/NaN (the dynamics diverge; solve_ivp would shrink the step until it failed)
+OK, TOO_SMALL_STEP, DIVERGED = 0, 1, 2
 
 
 @njit(cache=True)
@@ -46,7 +49,7 @@ def _rhs(acc, y, u, theta, width, out):
 @njit(cache=True)
 def _interval(acc, y0, u, t0, t1, theta, width, rtol, atol, A, B, C, E3, E5, exponent, K):
     """One hold interval [t0, t1] from y0, as solve_ivp(DOP853, first_step=t1 - t0); returns
-    (y(t1), number of right-hand-side evaluations, ok). K: (13, 2n) stage storage."""
+    (y(t1), number of right-hand-side evaluations, status). K: (13, 2n) stage storage."""
     m = y0.shape[0]
     y = y0.copy()
     f = np.empty(m)
@@ -55,7 +58,7 @@ def _interval(acc, y0, u, t0, t1, theta, width, rtol, atol, A, B, C, E3, E5, exp
     t, h_abs = t0, t1 - t0
     y_new, f_new, ys = np.empty(m), np.empty(m), np.empty(m)
     if t == t1:
-        return y, nfev, True
+        return y, nfev, OK
     while True:
         min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
         if h_abs < min_step:
@@ -63,7 +66,7 @@ def _interval(acc, y0, u, t0, t1, theta, width, rtol, atol, A, B, C, E3, E5, exp
         accepted, rejected = False, False
         while not accepted:
             if h_abs < min_step:
-                return y, nfev, False
+                return y, nfev, TOO_SMALL_STEP
             t_new = t + h_abs
             if t_new - t1 > 0:
                 t_new = t1
@@ -86,6 +89,8 @@ def _interval(acc, y0, u, t0, t1, theta, width, rtol, atol, A, B, C, E3, E5, exp
             _rhs(acc, y_new, u, theta, width, f_new)
             K[_N_STAGES, :] = f_new
             nfev += _N_STAGES
+            if not (np.all(np.isfinite(y_new)) and np.all(np.isfinite(f_new))):
+                return y, nfev, DIVERGED
             # DOP853._estimate_error_norm
             e5, e3 = 0.0, 0.0
             for i in range(m):
@@ -114,28 +119,30 @@ def _interval(acc, y0, u, t0, t1, theta, width, rtol, atol, A, B, C, E3, E5, exp
         y[:] = y_new
         f[:] = f_new
         if t - t1 >= 0:
-            return y, nfev, True
+            return y, nfev, OK
 
 
 _V, _M = types.float64[::1], types.float64[:, ::1]
 
 
-@njit(types.Tuple((_M, types.int64, types.int64))(types.FunctionType(ACCELERATION), _V, _M, _V, _V, types.float64,
-                                                  types.float64, types.float64, _M, _V, _V, _V, _V, types.float64),
-      cache=True)
+_I = types.int64
+
+
+@njit(types.Tuple((_M, _I, _I, _I))(types.FunctionType(ACCELERATION), _V, _M, _V, _V, types.float64, types.float64,
+                                    types.float64, _M, _V, _V, _V, _V, types.float64), cache=True)
 def _hold_loop(acc, y0, U, t, theta, width, rtol, atol, A, B, C, E3, E5, exponent):
     K = np.empty((_N_STAGES + 1, y0.shape[0]))
     Y = np.empty((t.shape[0], y0.shape[0]))
     Y[0] = y0
     nfev = 0
     for k in range(t.shape[0] - 1):
-        y, nf, ok = _interval(acc, Y[k], U[k], t[k], t[k + 1], theta, width, rtol, atol, A, B, C, E3, E5,
-                              exponent, K)
+        y, nf, status = _interval(acc, Y[k], U[k], t[k], t[k + 1], theta, width, rtol, atol, A, B, C, E3, E5,
+                                  exponent, K)
         nfev += nf
-        if not ok:
-            return Y, nfev, k
+        if status != OK:
+            return Y, nfev, k, status
         Y[k + 1] = y
-    return Y, nfev, -1
+    return Y, nfev, -1, OK
 
 
 def simulate_hold(acceleration, y0: np.ndarray, U: np.ndarray, t: np.ndarray, theta: np.ndarray,
@@ -144,8 +151,9 @@ def simulate_hold(acceleration, y0: np.ndarray, U: np.ndarray, t: np.ndarray, th
 
     acceleration : compiled function of type :data:`ACCELERATION`; y0 : (2n,) [q0, qd0];
     theta : (p,); rtol, atol : scalar tolerances as in solve_ivp (rtol raised to 100 eps like it).
-    Returns (Y, nfev, failed) with failed = the index k of the interval whose step size fell below
-    10 ulp of t (Y[k + 1:] undefined), -1 when every interval succeeded.
+    Returns (Y, nfev, failed, status): failed = the index k of the interval that failed (Y[k + 1:]
+    undefined), -1 when every interval succeeded; status :data:`OK`, :data:`TOO_SMALL_STEP` or
+    :data:`DIVERGED`.
     """
     rtol = max(float(rtol), 100 * np.finfo(float).eps)
     as64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731

@@ -31,7 +31,7 @@ from scipy.integrate import solve_ivp
 
 from boundid._validation import as_float_array, as_vector
 from boundid.errors import InputError, SolverError
-from boundid.experiments._hold_integrator import simulate_hold
+from boundid.experiments._hold_integrator import DIVERGED, simulate_hold
 from boundid.experiments.measurement import TorqueNoise, quantize_angle
 from boundid.experiments.preprocessing import backward_difference
 
@@ -169,7 +169,11 @@ def _simulate_compiled(model, acceleration, U, t, h, q0, qd0, theta, coulomb_wid
     theta = model._theta(theta)
     if coulomb_width < 0:
         raise InputError(f"coulomb_width must be >= 0 rad/s, got {coulomb_width}.")
-    Y, nfev, failed = simulate_hold(acceleration, np.concatenate([q, qd]), U, t, theta, coulomb_width, rtol, atol)
+    Y, nfev, failed, status = simulate_hold(acceleration, np.concatenate([q, qd]), U, t, theta, coulomb_width,
+                                            rtol, atol)
+    if status == DIVERGED:
+        raise SolverError(f"DOP853 (compiled): the state became infinite or NaN on [{t[failed]:g}, "
+                          f"{t[failed + 1]:g}] s: these dynamics diverge (check theta: a physical robot's do not).")
     if failed >= 0:
         raise SolverError(f"DOP853 (compiled) failed on [{t[failed]:g}, {t[failed + 1]:g}] s: required step size "
                           "is less than spacing between numbers; increase coulomb_width or loosen rtol/atol.")
