@@ -7,8 +7,9 @@ Each sample k (period h = 1 / fs_hz):
     V_T      = clip(u / G_T, +-torque_limit / G_T)                          current reference
     Gamma    = G_T V_T                                                      (paper eq. 36)
 and the robot's forward dynamics are integrated over [t_k, t_k+1) with Gamma held constant
-(zero-order hold) by ``substeps`` classical RK4 steps. For the H4 a compiled kernel does the
-integration (warm-started Newton forward model); other robots use their ``forward_dynamics``.
+(zero-order hold) by ``substeps`` classical RK4 steps. For the H4 the whole loop is compiled
+(:func:`_h4_loop`, integration by :func:`boundid.models._h4_kernels.rk4_zoh` with a warm-started
+Newton forward model); other robots run it in Python with their ``forward_dynamics``.
 """
 
 from __future__ import annotations
@@ -16,10 +17,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 from boundid._validation import as_vector
 from boundid.errors import InputError, UnreachablePoseError
 from boundid.experiments.measurement import quantize_angle
+from boundid.models._h4_kernels import rk4_zoh
 
 
 @dataclass(frozen=True)
@@ -99,8 +102,6 @@ def zoh_step(robot, q, qd, tau, dt: float, substeps: int = 4, coulomb_width: flo
     x_hint : H4 only, the pose warm-starting the Newton forward model (returned updated).
     """
     if hasattr(robot, "step_kernel_args"):
-        from boundid.models._h4_kernels import rk4_zoh
-
         x0 = np.asarray(robot.geometry.home if x_hint is None else x_hint, float)
         q1, qd1, x1, ok = rk4_zoh(q, qd, tau, x0, dt, substeps, *robot.step_kernel_args(), float(coulomb_width),
                                   robot.fk_tol, robot.fk_max_iter)
@@ -112,6 +113,37 @@ def zoh_step(robot, q, qd, tau, dt: float, substeps: int = 4, coulomb_width: flo
         return q1, qd1, x1
     q1, qd1 = _rk4_generic(robot, q, qd, tau, dt, substeps, coulomb_width)
     return q1, qd1, None
+
+
+@njit(cache=True)
+def _h4_loop(q, q_des, qd_des, kp, ki, kd, h, gain, v_max, step, substeps, x0, P, V, W, side, updown, dims, theta,
+             struct, g, width, tol, max_iter):
+    """The loop of :func:`simulate_closed_loop` for the H4, compiled: the same operations in the same
+    order (encoder, PID with conditional integration, clipped current reference, :func:`rk4_zoh`),
+    so the same numbers; returns (Q, QD, QM, V, SAT, k) with k the sample whose step left the
+    reachable set (-1: none; rows from k + 1 on undefined)."""
+    N, n = q_des.shape
+    Q, QD, QM, Vr = np.empty((N, n)), np.empty((N, n)), np.empty((N, n)), np.empty((N, n))
+    SAT = np.zeros((N, n), np.bool_)
+    qd, integ = np.zeros(n), np.zeros(n)
+    q_prev = np.round(q / step) * step
+    x = x0.copy()
+    for k in range(N):
+        qm = np.round(q / step) * step
+        v_est = (qm - q_prev) / h
+        q_prev = qm
+        e = q_des[k] - qm
+        u = kp * e + ki * integ + kd * (qd_des[k] - v_est)
+        v = u / gain
+        sat = np.abs(v) >= v_max
+        integ += np.where(sat, 0.0, e * h)
+        v = np.minimum(np.maximum(v, -v_max), v_max)
+        Q[k], QD[k], QM[k], Vr[k], SAT[k] = q, qd, qm, v, sat
+        q, qd, x, ok = rk4_zoh(q, qd, gain * v, x, h, substeps, P, V, W, side, updown, dims, theta, struct, g,
+                               width, tol, max_iter)
+        if not ok:
+            return Q, QD, QM, Vr, SAT, k
+    return Q, QD, QM, Vr, SAT, -1
 
 
 def simulate_closed_loop(robot, reference, duration: float, controller: JointPID, fs_hz: float = 1000.0,
@@ -136,6 +168,20 @@ def simulate_closed_loop(robot, reference, duration: float, controller: JointPID
     t = np.arange(int(round(duration * fs_hz))) * h
     q_des, qd_des, _ = reference.evaluate(t)
     q = np.array(q_des[0] if q0 is None else as_vector(q0, "q0", n), float)
+    info = {"fs_hz": fs_hz, "amplifier_gain": amplifier_gain, "torque_limit": torque_limit,
+            "counts_per_rev": counts_per_rev, "substeps": int(substeps), "coulomb_width": coulomb_width}
+    if hasattr(robot, "step_kernel_args"):  # H4: the whole loop compiled, same operations as below
+        quantize_angle(q, counts_per_rev)  # checks counts_per_rev
+        Q, QD, QM, V, SAT, failed = _h4_loop(
+            q, np.ascontiguousarray(q_des, float), np.ascontiguousarray(qd_des, float), controller.kp, controller.ki,
+            controller.kd, h, float(amplifier_gain), torque_limit / amplifier_gain, 2.0 * np.pi / counts_per_rev,
+            int(substeps), np.asarray(robot.geometry.home, float), *robot.step_kernel_args(), float(coulomb_width),
+            robot.fk_tol, robot.fk_max_iter)
+        if failed >= 0:
+            raise UnreachablePoseError(
+                f"the simulated robot left its reachable set near q = {np.array2string(Q[failed], precision=4)} rad; "
+                "lower the trajectory amplitude or stiffen the controller.")
+        return ClosedLoopRun(t, Q, QD, QM, q_des, qd_des, V, amplifier_gain * V, SAT, info)
     qd = np.zeros(n)
     Q, QD, QM, V, SAT = (np.empty((len(t), n)) for _ in range(5))
     integ = np.zeros(n)
@@ -154,6 +200,4 @@ def simulate_closed_loop(robot, reference, duration: float, controller: JointPID
         v = np.clip(v, -v_max, v_max)
         Q[k], QD[k], QM[k], V[k], SAT[k] = q, qd, qm, v, sat
         q, qd, x_hint = zoh_step(robot, q, qd, amplifier_gain * v, h, int(substeps), coulomb_width, x_hint)
-    info = {"fs_hz": fs_hz, "amplifier_gain": amplifier_gain, "torque_limit": torque_limit,
-            "counts_per_rev": counts_per_rev, "substeps": int(substeps), "coulomb_width": coulomb_width}
     return ClosedLoopRun(t, Q, QD, QM, q_des, qd_des, V, amplifier_gain * V, SAT.astype(bool), info)

@@ -18,9 +18,16 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 
 import numpy as np
+from numba import types
 
 from boundid._validation import as_float_array
 from boundid.errors import InputError
+
+#: numba type of a model's optional compiled acceleration ``compiled_acceleration(y, u, theta,
+#: coulomb_width, out)``: y (2n,) = [q, qd], u (n,) N m, theta (p,); writes qdd (n,) into ``out``.
+#: The zero-order-hold simulator (boundid.experiments._hold_integrator) calls it without leaving numba.
+ACCELERATION = types.void(types.float64[::1], types.float64[::1], types.float64[::1], types.float64,
+                          types.float64[::1])
 
 
 def coulomb(qd: np.ndarray, width: float = 0.0) -> np.ndarray:

@@ -24,11 +24,20 @@ Execution: ``dask.distributed`` -- a ``LocalCluster`` of K single-threaded worke
 existing cluster at ``scheduler`` ("tcp://host:port"); ``workers=0`` runs in this process (no
 cluster; for tests and debugging). Dask re-runs a task whose worker died on another worker. The
 workers write the files themselves: on a remote cluster ``out`` must be a folder they all share.
+
+Speed (docs/scaling.md, reports/benchmarks/campaign.md): the replicate is the unit of parallelism,
+so each one runs with ONE BLAS/OpenMP thread (``threadpoolctl``; a LocalCluster's workers also
+start with OMP/OPENBLAS/MKL/NUMBA_NUM_THREADS=1): on a shared 2-core machine a multi-threaded BLAS
+made the in-process loop 3x slower, and K workers would oversubscribe the cores. A LocalCluster's
+workers start without dask's MALLOC_TRIM_THRESHOLD_ (:func:`local_cluster`). Each worker imports the
+replicate's modules and loads the numba kernels (``cache=True``: from their on-disk cache, never
+compiled anew) once, when it joins (:func:`connect`, :func:`warm_up`), not in its first replicate.
 """
 
 from __future__ import annotations
 
 import hashlib
+import logging
 import os
 import time
 import uuid
@@ -38,6 +47,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from threadpoolctl import threadpool_limits
 
 from boundid.errors import RUN_FAILURES, InputError, StudyError
 from boundid.studies.config import StudyConfig
@@ -147,7 +157,8 @@ def run_replicate(cfg: StudyConfig, scenario: Scenario, replicate: int, data_dir
     path = replicate_path(data_dir, scenario.name, config_hash(campaign_config(cfg, scenario)), replicate)
     if path.exists():
         return str(path)
-    table = replicate_rows(cfg, scenario, replicate)
+    with threadpool_limits(limits=1):  # one replicate per core: a multi-threaded BLAS only oversubscribes
+        table = replicate_rows(cfg, scenario, replicate)
     tmp = data_dir / f".{path.stem}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
     try:
         table.to_parquet(tmp, index=False)
@@ -270,14 +281,77 @@ def run_campaign(cfg: StudyConfig, replicates: int, scenarios: tuple[Scenario, .
                           [(sc.name, r) for sc, r in done], aside, time.perf_counter() - t0, n_workers)
 
 
-def _run_dask(cfg, todo, data_dir: Path, workers: int, scheduler: str | None, computed: list) -> int:
-    from dask.distributed import Client, LocalCluster, as_completed
+#: environment of a LocalCluster's worker processes, set before they import numpy or numba
+WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
 
-    if scheduler is not None:
-        client, cluster = Client(scheduler), None
-    else:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
-        client = Client(cluster)
+
+def local_cluster(workers: int):
+    """A dask ``LocalCluster`` of ``workers`` single-threaded worker processes, one BLAS/numba thread each.
+
+    Dask's default environment for its workers also sets MALLOC_TRIM_THRESHOLD_=65536, which turns off
+    glibc's adaptive mmap threshold: every array above 128 kB is then mapped and unmapped anew, and a
+    replicate costs 25 % more CPU (reports/benchmarks/campaign.md); the workers start without it.
+    """
+    import dask
+    from dask.distributed import LocalCluster
+
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                            env=WORKER_ENV)
+
+
+_WARMED: set[str] = set()  # the configurations this process has warmed up for
+
+
+def warm_up(cfg: StudyConfig) -> None:
+    """Load the kernels a replicate of ``cfg`` uses, once per process and configuration: one replicate
+    of the study with its experiment cut to a fifth (whole samples), results discarded. The numba
+    kernels compiled without a signature load from their disk cache at their first call (~0.2-0.3 s
+    in all); here, not in the worker's first real replicate. A configuration that cannot run so
+    short is only logged: its real replicates report their own failures."""
+    chash = config_hash(cfg)
+    if chash in _WARMED:
+        return
+    _WARMED.add(chash)
+    h = cfg.experiment.sample_period_s
+    short = replace(cfg, experiment=replace(cfg.experiment, duration_s=max(1, round(cfg.experiment.duration_s
+                                                                                   / 5 / h)) * h))
+    try:
+        with threadpool_limits(limits=1):
+            replicate_rows(short, Scenario("study"), 0)
+    except Exception as exc:  # a warm-up only: nothing of it is kept
+        logging.getLogger(__name__).warning("campaign warm-up skipped (%s: %s)", type(exc).__name__, exc)
+
+
+def _warm_plugin(cfg: StudyConfig):
+    """A dask WorkerPlugin that warms each worker up for ``cfg`` (:func:`warm_up`) when it joins."""
+    from dask.distributed import WorkerPlugin
+
+    class WarmUp(WorkerPlugin):
+        name = "boundid-warm-up"
+
+        def setup(self, worker):
+            warm_up(cfg)
+
+    return WarmUp()
+
+
+def connect(cfg: StudyConfig, scheduler: str | None = None, workers: int = 1):
+    """(client, cluster): a Client of the cluster at ``scheduler``, else of a new :func:`local_cluster`
+    (then ``cluster`` is it, for the caller to close); every worker, present and future, warmed up
+    for ``cfg`` (:func:`warm_up`) before its first replicate."""
+    from dask.distributed import Client
+
+    cluster = None if scheduler is not None else local_cluster(workers)
+    client = Client(scheduler if scheduler is not None else cluster)
+    client.register_plugin(_warm_plugin(cfg))
+    return client, cluster
+
+
+def _run_dask(cfg, todo, data_dir: Path, workers: int, scheduler: str | None, computed: list) -> int:
+    from dask.distributed import as_completed
+
+    client, cluster = connect(cfg, scheduler, workers)
     try:
         # cfg goes with each task (a few kB), not scattered: scattered data dies with its worker,
         # and the tasks that need it would then be cancelled instead of re-run elsewhere

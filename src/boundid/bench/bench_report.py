@@ -1,0 +1,53 @@
+"""Time of `make report`'s work: `boundid report` on the repository's studies, in a fresh process."""
+
+from __future__ import annotations
+
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pandas as pd
+
+from boundid.bench.goals import Goal
+
+ROOT = Path(__file__).resolve().parents[3]
+
+GOALS = """
+`boundid report` -- what `make report` runs once the environment is installed -- on the
+repository's studies (studies/*.toml: the H4 and direct-drive studies), into a temporary folder,
+in a fresh Python process, as a user would start it: imports, simulation, every estimator, the
+exact optima (LP bounds, SDP ellipsoids), the validation experiments and the pages with their
+figures. `wall_s`: its wall time; `cpu_s`: user + system CPU time of the process (what the time
+would be on an idle core: the machine's 2 cores are shared), with the 1-minute load average when it
+started. With --quick the run is skipped (it has no smaller size).
+
+Goal (issue 19, goal 2): `make report` <= 30 s, install excluded.
+"""
+
+GOAL_CHECKS = (
+    Goal("make report (studies and pages, install excluded)", {"case": "boundid report"}, "wall_s", "<=", 30.0, "s",
+         size="{studies} studies", cpu_column="cpu_s"),
+)
+
+
+def run(quick: bool = False) -> pd.DataFrame:
+    studies = sorted((ROOT / "studies").glob("*.toml"))
+    if quick:
+        return pd.DataFrame([{"case": "boundid report", "studies": len(studies), "wall_s": float("nan"),
+                              "cpu_s": float("nan"), "load_avg_1min": os.getloadavg()[0]}])
+    load = os.getloadavg()[0]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-c", "import sys; from boundid.cli import main; sys.exit(main())", "report",
+                        "--studies", str(ROOT / "studies"), "--out", str(Path(tmp) / "reports"), "--quiet"],
+                       check=True, cwd=ROOT)
+        wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return pd.DataFrame([{"case": "boundid report", "studies": len(studies), "wall_s": wall, "cpu_s": cpu,
+                          "load_avg_1min": load}])
