@@ -43,7 +43,7 @@ strips for the LP bounds per replicate.
   cluster / of the in-process loop (`_cpu`: the same on the CPU-time rates; a goal met on these only
   is marked "met on CPU time only"). `load_avg_1min`: the machine's load when the case started.
 
-Goals (issue 19, goal 3): >= 150 replicates/min in process for the 5 s experiment; one worker within
+Goals (campaign scaling): >= 150 replicates/min in process for the 5 s experiment; one worker within
 10 % of the in-process loop (ratio_vs_in_process >= 0.9); 2 workers >= 1.7x one worker. The
 2-worker speed-up is bounded by the cores free at the time: with a load average above 2 (other
 jobs) on 2 cores it cannot be met on wall time.

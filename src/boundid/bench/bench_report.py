@@ -25,7 +25,7 @@ figures. `wall_s`: its wall time; `cpu_s`: user + system CPU time of the process
 would be on an idle core: the machine's 2 cores are shared), with the 1-minute load average when it
 started. With --quick the run is skipped (it has no smaller size).
 
-Goal (issue 19, goal 2): `make report` <= 30 s, install excluded.
+Goal (time of a report): `make report` <= 30 s, install excluded.
 """
 
 GOAL_CHECKS = (
