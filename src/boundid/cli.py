@@ -175,15 +175,17 @@ def cmd_teach(args) -> int:
 
 
 def cmd_list(args) -> int:
-    from boundid.studies.registry import ESTIMATORS, REGRESSIONS, ROBOTS
+    from boundid.estimators.registry import METHODS
+    from boundid.studies.config import option_help
+    from boundid.studies.registry import REGRESSIONS, ROBOTS
 
     print("robots:")
     for name, factory in ROBOTS.items():
         model = factory({})
         print(f"  {name:<14} {model.n_joints} joints, {model.p} parameters: {', '.join(model.param_names)}")
-    print("estimators:")
-    for name, doc in ESTIMATORS.items():
-        print(f"  {name:<14} {doc}")
+    print("estimators (method = ...; the options of each [[estimators]] table):")
+    for name, m in METHODS.items():
+        print(f"  {name:<16} {m.summary} [{m.kind}, {m.set_family}]\n  {'':<16} {option_help(m)}")
     print("regression models:")
     for name, doc in REGRESSIONS.items():
         print(f"  {name:<18} {doc}")

@@ -244,7 +244,13 @@ def _convergence_sets(page: Page, r: StudyResult) -> None:
 
 def study_page(r: StudyResult) -> Page:
     """Build the page of ``r`` (nothing written). A section, figure or projection that fails is left
-    out and listed, with the run's own failures, in the table of the last section, "What failed"."""
+    out and listed, with the run's own failures, in the table of the last section, "What failed".
+    Each estimator is drawn in its method's style (:meth:`StudyConfig.styles`)."""
+    with F.method_styles(r.config.styles()):
+        return _page(r)
+
+
+def _page(r: StudyResult) -> Page:
     cfg = r.config
     page = Page(cfg.title, cfg.description.strip(), setup=_setup(r))
     failures = list(r.failures)

@@ -1,5 +1,5 @@
-"""What a study file may name: robots (with their options), estimators, regression models, and the
-options of the closed-loop experiment.
+"""What a study file may name: robots (with their options), regression models, and the options of
+the closed-loop experiment (the estimators are in :mod:`boundid.estimators.registry`).
 
 Each options table is described by {option: default}; the default gives the type a study file
 must write (see :meth:`boundid.studies.schema.Section.options`).
@@ -56,15 +56,6 @@ def closed_loop_options() -> dict:
     return {k: fields[k] for k in ("amplifier_gain", "torque_limit", "bandwidth_hz", "substeps", "optimize_evals",
                                    "fast_period", "slow_fraction")}
 
-
-ESTIMATORS = {
-    "obe": "Optimal Bounding Ellipsoid, guaranteed set (form: standard | factorized; criterion: volume | "
-           "trace | dasgupta-huang; e_max in the regression's unit)",
-    "rls": "recursive least squares (theta0, P0, forgetting)",
-    "ols": "ordinary least squares with Student-t intervals",
-    "wls": "IDIM-WLS: rows weighted by each joint's residual standard deviation",
-    "kalman": "Kalman filter on the parameters (theta0, P0, R, Q)",
-}
 
 REGRESSIONS = {
     "inverse_dynamic": "tau = Y(q, qd, qdd) theta; qd, qdd by central differences of low-passed q",
