@@ -14,6 +14,7 @@ from boundid.estimators import (
     OBE,
     RLS,
     BoxedOBE,
+    BoxRecursion,
     KalmanEstimator,
     LimitedPolytopeRecursion,
     ParallelotopeRecursion,
@@ -43,7 +44,7 @@ def _problem() -> Problem:
 def _direct(name: str, pb: Problem):
     """The estimator class or function of each method called directly with its own defaults."""
     kw = {"record_every": pb.record_every, "names": pb.names}
-    sets = {"obe": OBE, "parallelotope": ParallelotopeRecursion, "zonotope": ZonotopeRecursion,
+    sets = {"obe": OBE, "box": BoxRecursion, "parallelotope": ParallelotopeRecursion, "zonotope": ZonotopeRecursion,
             "polytope_limited": LimitedPolytopeRecursion, "polytope_exact": PolytopeRecursion,
             "obe_boxed": BoxedOBE, "obe_windowed": WindowedOBE}
     if name in sets:
