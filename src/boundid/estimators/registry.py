@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from boundid.errors import InputError
 from boundid.estimators import (
+    box_recursion,
     kalman,
     least_squares,
     obe,
@@ -37,6 +38,7 @@ METHODS: dict[str, Method] = _index(
     kalman.METHOD,
     least_squares.OLS_METHOD,
     least_squares.WLS_METHOD,
+    box_recursion.METHOD,
     parallelotope_recursion.METHOD,
     zonotope_recursion.METHOD,
     polytope_recursion.LIMITED_METHOD,
