@@ -176,13 +176,16 @@ def cmd_teach(args) -> int:
 
 def cmd_list(args) -> int:
     from boundid.estimators.registry import METHODS
+    from boundid.models.registry import ROBOTS, make_robot, robot_options
     from boundid.studies.config import option_help
-    from boundid.studies.registry import REGRESSIONS, ROBOTS
+    from boundid.studies.registry import REGRESSIONS
 
     print("robots:")
-    for name, factory in ROBOTS.items():
-        model = factory({})
-        print(f"  {name:<14} {model.n_joints} joints, {model.p} parameters: {', '.join(model.param_names)}")
+    for name in ROBOTS:
+        model = make_robot(name)
+        print(f"  {name:<14} {model.n_joints} joints, {model.p} parameters: {', '.join(model.param_names)}; "
+              f"experiments: {', '.join(model.experiments) or 'measured data only'}\n  {'':<14} robot.options: "
+              f"{', '.join(robot_options(name)) or 'none'}")
     print("estimators (method = ...; the options of each [[estimators]] table):")
     for name, m in METHODS.items():
         print(f"  {name:<16} {m.summary} [{m.kind}, {m.set_family}]\n  {'':<16} {option_help(m)}")

@@ -7,8 +7,9 @@ Each sample k (period h = 1 / fs_hz):
     V_T      = clip(u / G_T, +-torque_limit / G_T)                          current reference
     Gamma    = G_T V_T                                                      (paper eq. 36)
 and the robot's forward dynamics are integrated over [t_k, t_k+1) with Gamma held constant
-(zero-order hold) by ``substeps`` classical RK4 steps. For the H4 a compiled kernel does the
-integration (warm-started Newton forward model); other robots use their ``forward_dynamics``.
+(zero-order hold) by ``substeps`` classical RK4 steps: the robot's compiled stepper when it
+offers one (:meth:`boundid.models.RobotModel.zoh_stepper`, the H4's warm-started Newton forward
+model), else RK4 on its ``forward_dynamics``.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from boundid._validation import as_vector
-from boundid.errors import InputError, UnreachablePoseError
+from boundid.errors import InputError
 from boundid.experiments.measurement import quantize_angle
 
 
@@ -93,43 +94,38 @@ def _rk4_generic(robot, q, qd, tau, dt, substeps, coulomb_width):
     return q, qd
 
 
-def zoh_step(robot, q, qd, tau, dt: float, substeps: int = 4, coulomb_width: float = 0.0, x_hint=None):
-    """Advance one state (q, qd) (n,) by dt s under constant torque tau (n,); returns (q, qd, x_hint).
+def zoh_step(robot, q, qd, tau, dt: float, substeps: int = 4, coulomb_width: float = 0.0, hint=None):
+    """Advance one state (q, qd) (n,) by dt s under constant torque tau (n,); returns (q, qd, hint).
 
-    x_hint : H4 only, the pose warm-starting the Newton forward model (returned updated).
+    The robot's compiled stepper when it offers one (:meth:`RobotModel.zoh_stepper`; ``hint`` is
+    its warm start, e.g. the H4's pose), else ``substeps`` RK4 steps of its forward dynamics.
     """
-    if hasattr(robot, "step_kernel_args"):
-        from boundid.models._h4_kernels import rk4_zoh
-
-        x0 = np.asarray(robot.geometry.home if x_hint is None else x_hint, float)
-        q1, qd1, x1, ok = rk4_zoh(q, qd, tau, x0, dt, substeps, *robot.step_kernel_args(), float(coulomb_width),
-                                  robot.fk_tol, robot.fk_max_iter)
-        if not ok:
-            raise UnreachablePoseError(
-                f"the simulated robot left its reachable set near q = {np.array2string(q, precision=4)} rad; "
-                "lower the trajectory amplitude or stiffen the controller."
-            )
-        return q1, qd1, x1
+    stepper = robot.zoh_stepper()
+    if stepper is not None:
+        return stepper(q, qd, tau, dt, substeps, coulomb_width, hint)
     q1, qd1 = _rk4_generic(robot, q, qd, tau, dt, substeps, coulomb_width)
     return q1, qd1, None
 
 
 def simulate_closed_loop(robot, reference, duration: float, controller: JointPID, fs_hz: float = 1000.0,
-                         amplifier_gain: float = 1.5, torque_limit: float = 15.0, counts_per_rev: int = 65536,
+                         amplifier_gain=1.5, torque_limit=15.0, counts_per_rev: int = 65536,
                          substeps: int = 4, coulomb_width: float = 0.01, q0=None) -> ClosedLoopRun:
     """Track ``reference`` (an object with ``evaluate(t) -> (q, qd, qdd)``) for ``duration`` s.
 
     amplifier_gain : G_T, N m per unit of current reference; torque_limit : N m (+-15 for the H4);
+    each a scalar (every joint) or one value per joint (n,);
     counts_per_rev : encoder resolution; substeps : RK4 steps per sample (4 keeps the tanh Coulomb
     friction of width ``coulomb_width`` rad/s stable and the angle error below 1e-7 rad after 40
     samples against solve_ivp, see tests/test_h4_experiment.py); q0 : initial angles (default:
     the reference at t = 0, at rest).
     """
-    if not (duration > 0 and fs_hz > 0 and amplifier_gain > 0 and torque_limit > 0):
+    n = robot.n_joints
+    gain, limit = (np.broadcast_to(np.asarray(v, float), (n,)) if np.ndim(v) == 0 else as_vector(v, name, n)
+                   for v, name in ((amplifier_gain, "amplifier_gain"), (torque_limit, "torque_limit")))
+    if not (duration > 0 and fs_hz > 0 and np.all(gain > 0) and np.all(limit > 0)):
         raise InputError("duration, fs_hz, amplifier_gain and torque_limit must be > 0.")
     if int(substeps) != substeps or substeps < 1:
         raise InputError(f"substeps must be a positive integer, got {substeps}.")
-    n = robot.n_joints
     if controller.kp.shape != (n,):
         raise InputError(f"controller has {controller.kp.shape[0]} joints, robot {n}.")
     h = 1.0 / fs_hz
@@ -140,20 +136,24 @@ def simulate_closed_loop(robot, reference, duration: float, controller: JointPID
     Q, QD, QM, V, SAT = (np.empty((len(t), n)) for _ in range(5))
     integ = np.zeros(n)
     q_prev = quantize_angle(q, counts_per_rev)
-    x_hint = None
-    v_max = torque_limit / amplifier_gain
+    hint = None
+    stepper = robot.zoh_stepper()
+    v_max = limit / gain
     for k in range(len(t)):
         qm = quantize_angle(q, counts_per_rev)
         v_est = (qm - q_prev) / h
         q_prev = qm
         e = q_des[k] - qm
         u = controller.kp * e + controller.ki * integ + controller.kd * (qd_des[k] - v_est)
-        v = u / amplifier_gain
+        v = u / gain
         sat = np.abs(v) >= v_max
         integ += np.where(sat, 0.0, e * h)  # conditional integration (anti-windup)
         v = np.clip(v, -v_max, v_max)
         Q[k], QD[k], QM[k], V[k], SAT[k] = q, qd, qm, v, sat
-        q, qd, x_hint = zoh_step(robot, q, qd, amplifier_gain * v, h, int(substeps), coulomb_width, x_hint)
+        if stepper is not None:
+            q, qd, hint = stepper(q, qd, gain * v, h, int(substeps), coulomb_width, hint)
+        else:
+            q, qd = _rk4_generic(robot, q, qd, gain * v, h, int(substeps), coulomb_width)
     info = {"fs_hz": fs_hz, "amplifier_gain": amplifier_gain, "torque_limit": torque_limit,
             "counts_per_rev": counts_per_rev, "substeps": int(substeps), "coulomb_width": coulomb_width}
-    return ClosedLoopRun(t, Q, QD, QM, q_des, qd_des, V, amplifier_gain * V, SAT.astype(bool), info)
+    return ClosedLoopRun(t, Q, QD, QM, q_des, qd_des, V, gain * V, SAT.astype(bool), info)

@@ -5,10 +5,10 @@ torque-mode amplifier does. Each hold interval is integrated on its own with
 ``scipy.integrate.solve_ivp`` (DOP853 by default, rtol 1e-10): the right-hand side is smooth inside
 an interval, so the hold is exact and the integrator never steps across a torque jump.
 
-Speed: the right-hand side is called ~13 times per interval, so a model may provide the optional
-hook ``fast_acceleration(q, qd, u, theta, coulomb_width) -> list`` (one state, plain floats, no
-input checks; DirectDriveArm and LinearToy do). Without it the simulator uses ``mass_matrix`` and
-``bias_torque`` of the contract, with their input checks, several times slower.
+Speed: the right-hand side is called ~13 times per interval, so it is the model's ability
+``fast_acceleration(q, qd, u, theta, coulomb_width) -> list`` (one state, plain floats, no input
+checks; DirectDriveArm, LinearToy and UrdfRobot override it with closed forms; the default of
+:class:`boundid.models.RobotModel` solves ``mass_matrix`` against ``bias_torque``, several times slower).
 
 Coulomb friction is smoothed as tanh(qd / coulomb_width) (see :func:`boundid.models.coulomb`) so the
 dynamics are Lipschitz; with width 0.01 rad/s the smoothing acts only within a few hundredths of a
@@ -92,19 +92,11 @@ def simulate_sampled(model, torque: Callable, t_end: float, h: float, q0=None, q
     if coulomb_width < 0:
         raise InputError(f"coulomb_width must be >= 0 rad/s, got {coulomb_width}.")
 
-    fast = getattr(model, "fast_acceleration", None)
-    if callable(fast):
-        theta_list = theta.tolist()
+    fast, theta_list = model.fast_acceleration, theta.tolist()
 
-        def rhs(_t, y, u):
-            s = y.tolist()
-            return np.array(s[n:] + fast(s[:n], s[n:], u, theta_list, coulomb_width))
-    else:
-        def rhs(_t, y, u):
-            qq, vv = y[None, :n], y[None, n:]
-            acc = np.linalg.solve(model.mass_matrix(qq, theta)[0],
-                                  np.asarray(u) - model.bias_torque(qq, vv, theta, coulomb_width)[0])
-            return np.concatenate([y[n:], acc])
+    def rhs(_t, y, u):
+        s = y.tolist()
+        return np.array(s[n:] + fast(s[:n], s[n:], u, theta_list, coulomb_width))
 
     t = np.arange(K + 1) * h
     Y = np.empty((K + 1, 2 * n))

@@ -58,7 +58,7 @@ import pinocchio as pin
 
 from boundid._validation import as_float_array, as_vector
 from boundid.errors import InputError
-from boundid.models.base import RobotModel, coulomb
+from boundid.models.base import RobotModel, coulomb, per_state
 from boundid.models.limits import JointLimits
 from boundid.sets.constraints import PhysicalConstraints, constraints, linear_rows
 from boundid.sets.constraints import pseudo_inertia as pseudo_inertia_lmi
@@ -437,6 +437,7 @@ class UrdfRobot(RobotModel):
         return np.zeros((N, self.n_joints, self.p))
 
     # -- regressors ----------------------------------------------------------------------
+    @per_state
     def regressor(self, q, qd, qdd) -> np.ndarray:
         """Y (N, n, p): tau = Y theta, inertial part by ``pin.computeJointTorqueRegressor``."""
         (q, qd, qdd), _ = self._states(q, qd, qdd)
@@ -469,6 +470,7 @@ class UrdfRobot(RobotModel):
         carries = np.triu(np.ones((n, n)))[None, :, :, None]    # body i is carried by joint j iff i >= j
         return (np.einsum("Nja,Niak->Njik", vxS, G) * carries).reshape(N, n, 10 * n)
 
+    @per_state
     def momentum_regressor(self, q, qd) -> np.ndarray:
         """Ya (N, n, p): M(q) qd = Ya theta, the gravity-free torque regressor at (q, 0, qd) (plus Ia qd)."""
         (q, qd), _ = self._states(q, qd)
@@ -479,6 +481,7 @@ class UrdfRobot(RobotModel):
             Y[k, :, :10 * n] = pin.computeJointTorqueRegressor(self._still, self._still_data, Q[k], zero, qd[k])
         return self._joint_columns(Y, {"Ia": qd})
 
+    @per_state
     def remainder_regressor(self, q, qd) -> np.ndarray:
         """Yb (N, n, p) = g(q) - dK/dq + friction (+ offset), so that Y theta = d/dt(Ya theta) + Yb theta."""
         (q, qd), _ = self._states(q, qd)
@@ -490,6 +493,7 @@ class UrdfRobot(RobotModel):
             Y[k, :, :10 * n] += pin.computeJointTorqueRegressor(self._model, self._data, Q[k], zero, zero)
         return self._joint_columns(Y, {"fv": qd, "fc": np.sign(qd), "off": np.ones_like(qd)})
 
+    @per_state
     def energy_regressor(self, q, qd) -> np.ndarray:
         """phi_H (N, p): H = K + U = phi_H theta (pinocchio's kinetic and potential energy regressors)."""
         (q, qd), _ = self._states(q, qd)
@@ -502,6 +506,7 @@ class UrdfRobot(RobotModel):
             phi[:, self._slices["Ia"]] = 0.5 * qd ** 2
         return phi
 
+    @per_state
     def friction_power_regressor(self, qd) -> np.ndarray:
         """phi_f (N, p): qd^T (fv qd + fc sign qd + off) = phi_f theta."""
         (qd,), _ = self._states(qd, names=("qd",))
@@ -536,6 +541,7 @@ class UrdfRobot(RobotModel):
             tau = tau + th[self._slices["off"]]
         return tau
 
+    @per_state
     def mass_matrix(self, q, theta=None) -> np.ndarray:
         """M(q) (N, n, n) by CRBA (armature on the diagonal)."""
         (q,), _ = self._states(q, names=("q",))
@@ -547,6 +553,7 @@ class UrdfRobot(RobotModel):
             M[k] = U + np.triu(U, 1).T
         return M
 
+    @per_state
     def bias_torque(self, q, qd, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
         """C(q, qd) qd + g(q) (RNEA at zero acceleration) + friction (+ offset), (N, n)."""
         (q, qd), _ = self._states(q, qd)
@@ -556,6 +563,7 @@ class UrdfRobot(RobotModel):
         b = np.array([pin.nonLinearEffects(model, data, Q[k], qd[k]).copy() for k in range(q.shape[0])])
         return b.reshape(q.shape) + self._joint_torque(qd, th, coulomb_width)
 
+    @per_state
     def forward_dynamics(self, q, qd, tau, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
         """qdd (N, n) by ABA on tau minus friction (and offset)."""
         (q, qd, tau), _ = self._states(q, qd, tau, names=("q", "qd", "tau"))

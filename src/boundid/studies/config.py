@@ -19,11 +19,11 @@ from boundid.errors import InputError, StudyError
 from boundid.estimators.method import Method, Style
 from boundid.estimators.registry import METHODS
 from boundid.experiments.measurement import TorqueNoise
+from boundid.models import registry as robots
 from boundid.studies import sizing
-from boundid.studies.registry import ROBOT_OPTIONS, closed_loop_options, make_robot
+from boundid.studies.registry import closed_loop_options, make_robot
 from boundid.studies.schema import Section, read_toml
 
-ROBOTS = ("direct_drive", "h4", "linear_toy")
 REGRESSIONS = ("inverse_dynamic", "filtered_dynamic", "supplied_energy", "filtered_power")
 SDP_SETS = ("outer", "inner", "john")
 # folders other commands write beside the study pages (boundid bench, boundid teach): a study may
@@ -304,8 +304,8 @@ def load_study(path: str | Path) -> StudyConfig:
         raise st.error("name", f"{name!r} is the folder of another command's reports "
                                f"({', '.join(RESERVED_NAMES)}); choose another name.")
     rb = top.section("robot", required=True)
-    robot = rb.str("model", choices=ROBOTS)
-    robot_options = rb.options("options", ROBOT_OPTIONS[robot](), f"robot {robot!r}")
+    robot = rb.str("model", choices=tuple(robots.ROBOTS))
+    robot_options = rb.options("options", robots.robot_options(robot), f"robot {robot!r}")
     rb.check_unknown()
     model = make_robot(robot, robot_options)  # the model checks the option values
     experiment = _experiment(top.section("experiment", required=True), path.parent)

@@ -15,9 +15,10 @@ from boundid.studies.data import StudyData
 def closed_loop_data(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:
     """Identification and validation recordings (encoder angles, measured torques) of the H4."""
     exp = cfg.experiment
-    if model.name != "h4":
-        raise StudyError(f"{cfg.file}: experiment.control = 'closed_loop' is the H4 paper's experiment; "
-                         f"use 'open_loop' for {model.name}.")
+    if "closed_loop" not in model.experiments:
+        raise StudyError(f"{cfg.file}: experiment.control = 'closed_loop' is the H4 paper's experiment, which the "
+                         f"{cfg.robot} model does not support; its experiments: "
+                         f"{', '.join(model.experiments) or 'none (use measured data)'}.")
     if exp.validation_duration_s <= 0:
         raise StudyError(f"{cfg.file}: experiment.validation_duration_s must be > 0 for the cross-validation "
                          "trajectory of the closed-loop experiment.")
