@@ -151,6 +151,9 @@ class _LimitBarrier:
             raise UnreachablePoseError("trajectory outside the joint limits")
         return Y
 
+    def workspace_excursion(self, q, margin: float = 0.0) -> float:
+        return self.robot.workspace_excursion(q, margin)
+
 
 def optimize_within_limits(robot, traj: SegmentedTrajectory, margin: float = 0.1, fs_hz: float = 10.0,
                            max_evals: int = 400, scaled: bool = True) -> tuple[SegmentedTrajectory, dict]:

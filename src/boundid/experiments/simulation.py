@@ -29,6 +29,7 @@ from boundid._validation import as_float_array, as_vector
 from boundid.errors import InputError, SolverError
 from boundid.experiments.measurement import TorqueNoise, quantize_angle
 from boundid.experiments.preprocessing import backward_difference
+from boundid.models.base import RobotModel
 
 
 @dataclass
@@ -118,7 +119,8 @@ def simulate_sampled(model, torque: Callable, t_end: float, h: float, q0=None, q
     q, qd = Y[:, :n], Y[:, n:]
     qdd = model.forward_dynamics(q, qd, U, theta, coulomb_width)
     info = {"model": model.name, "theta": theta.copy(), "coulomb_width": coulomb_width, "rtol": rtol,
-            "atol": atol, "method": method, "nfev": nfev, "hold": "zero-order", "fast_path": callable(fast)}
+            "atol": atol, "method": method, "nfev": nfev, "hold": "zero-order",
+            "fast_path": type(model).fast_acceleration is not RobotModel.fast_acceleration}
     return Trajectory(t=t, q=q, qd=qd, qdd=qdd, tau=U, h=float(h), info=info)
 
 

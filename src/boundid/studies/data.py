@@ -13,6 +13,7 @@ from boundid.experiments.simulation import measure, simulate_open_loop
 from boundid.models import RobotModel
 from boundid.studies import sizing
 from boundid.studies.config import StudyConfig
+from boundid.studies.h4_experiment import closed_loop_data
 
 
 @dataclass
@@ -47,9 +48,8 @@ def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> St
         return StudyData(recording=rec, info={"source": str(m.file)})
     if exp.control == "open_loop":
         return _open_loop(cfg, model, rng)
-    from boundid.studies.h4_experiment import closed_loop_data
-
-    return closed_loop_data(cfg, model, rng)
+    recording, validation, info = closed_loop_data(cfg, model, rng)
+    return StudyData(recording=recording, validation=validation, info=info)
 
 
 def _open_loop(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:

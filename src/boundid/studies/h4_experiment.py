@@ -9,11 +9,12 @@ from boundid.experiments.h4_pipeline import H4ExperimentConfig, simulate_h4_expe
 from boundid.experiments.recording import Recording
 from boundid.models import RobotModel
 from boundid.studies.config import StudyConfig
-from boundid.studies.data import StudyData
 
 
-def closed_loop_data(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:
-    """Identification and validation recordings (encoder angles, measured torques) of the H4."""
+def closed_loop_data(cfg: StudyConfig, model: RobotModel,
+                     rng: np.random.Generator) -> tuple[Recording, Recording, dict]:
+    """Identification and validation recordings (encoder angles, measured torques) of the H4 and
+    the experiment's facts for the report (:class:`boundid.studies.data.StudyData` holds them)."""
     exp = cfg.experiment
     if "closed_loop" not in model.experiments:
         raise StudyError(f"{cfg.file}: experiment.control = 'closed_loop' is the H4 paper's experiment, which the "
@@ -34,4 +35,4 @@ def closed_loop_data(cfg: StudyConfig, model: RobotModel, rng: np.random.Generat
         r = recs[name]
         return Recording(t=r.run.t, q=r.run.q_meas, tau=r.tau_meas)
 
-    return StudyData(recording=recording("identification"), validation=recording("validation"), info=info)
+    return recording("identification"), recording("validation"), info

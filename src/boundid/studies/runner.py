@@ -14,53 +14,15 @@ from boundid.estimators import Estimate
 from boundid.estimators.certify import validate
 from boundid.estimators.method import Problem
 from boundid.estimators.registry import METHODS
-from boundid.experiments import regression as reg_builders
-from boundid.experiments.filters import align
-from boundid.experiments.h4_pipeline import identification_regression
-from boundid.experiments.recording import Recording
 from boundid.experiments.regression import Regression
 from boundid.models import RobotModel
 from boundid.sets import Box, Polytope, SDPResult, inner_ellipsoid, john_outer, outer_ellipsoid
-from boundid.studies.config import EstimatorConfig, PreprocessingConfig, PriorConfig, StudyConfig
+from boundid.studies.config import EstimatorConfig, PriorConfig, StudyConfig
 from boundid.studies.data import StudyData, acquire
 from boundid.studies.progress import QUIET, Progress
 from boundid.studies.registry import make_robot
-
-# ------------------------------------------------------------------------------ regressions
-
-
-def inverse_dynamic_rows(model: RobotModel, rec: Recording, pp: PreprocessingConfig) -> Regression:
-    """IDIM rows by the H4 paper's pipeline (:func:`identification_regression`, with the analytic
-    Jdot rather than the paper's central difference, so any robot model works): zero-phase
-    low-pass and central differences for qd, qdd; torques and regressor columns low-pass filtered
-    and decimated together ("parallel filtering"); the first and last ``3 / f_c`` seconds, where the
-    zero-phase filters start from assumed edge values, dropped."""
-    h = rec.h
-    fc = pp.lowpass_cutoff_hz or 0.8 * 0.5 / (h * pp.decimation)
-    return identification_regression(model, rec.t, rec.q, rec.tau, pp.lowpass_cutoff_hz, pp.decimation,
-                                     decimation_cutoff_hz=fc, jdot="analytic", edge_s=3.0 / fc,
-                                     min_speed=pp.min_speed_rad_s)
-
-
-def build_regressions(model: RobotModel, rec: Recording, pp: PreprocessingConfig,
-                      names: tuple[str, ...]) -> dict[str, Regression]:
-    """The named regression models built from one recording."""
-    out: dict[str, Regression] = {}
-    aligned = None
-    for name in names:
-        if name == "inverse_dynamic":
-            out[name] = inverse_dynamic_rows(model, rec, pp)
-            continue
-        if aligned is None:
-            aligned = align(rec.q, rec.tau, rec.h, pp.pairing, t0=float(rec.t[0]))
-        a = aligned
-        if name == "supplied_energy":
-            out[name] = reg_builders.supplied_energy(model, a.q, a.qd, a.tau, a.t)
-        else:
-            build = getattr(reg_builders, name)
-            out[name] = build(model, a.q, a.qd, a.tau, a.t, lam=pp.lambda_rad_s, discretisation=pp.discretisation)
-    return out
-
+from boundid.studies.regressions import build_regressions
+from boundid.studies.validation import validate_study
 
 # ------------------------------------------------------------------------------ estimators
 
@@ -292,8 +254,6 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
         else:
             failures += [Failure("exact optima", what, msg) for what, msg in exact.errors.items()]
         timings["exact"] = time.perf_counter() - t0
-
-    from boundid.studies.validation import validate_study
 
     t0 = time.perf_counter()
     with progress.stage(f"{cfg.name}: validation"):
