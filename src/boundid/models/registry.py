@@ -13,12 +13,14 @@ from boundid.errors import InputError
 from boundid.models.base import RobotModel
 from boundid.models.direct_drive import DirectDriveArm
 from boundid.models.h4 import H4Robot
+from boundid.models.pendulum import Pendulum
 from boundid.models.toy import LinearToy
 
 ROBOTS: dict[str, type[RobotModel]] = {
     "direct_drive": DirectDriveArm,
     "h4": H4Robot,
     "linear_toy": LinearToy,
+    "pendulum": Pendulum,
 }
 
 
