@@ -9,6 +9,7 @@ from boundid.errors import InputError, StudyError
 from boundid.estimators.registry import METHODS
 from boundid.experiments.recording import Recording, read_recording, write_recording
 from boundid.studies.config import REGRESSIONS, load_study
+from boundid.studies.registry import make_robot
 
 STUDIES = sorted((Path(__file__).parents[1] / "studies").glob("*.toml"))
 
@@ -198,3 +199,16 @@ def test_recording_cells_are_named_by_column_and_row(tmp_path):
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(InputError, match=r"column 'q1', data row 3: '1.0e' is not a number"):
         read_recording(path, "t", ["q1"], ["tau1"])
+
+
+def test_a_study_names_any_urdf_robot(tmp_path):
+    """Reference: example-robot-data's panda URDF (7 arm joints, 10 inertial parameters per link
+    plus viscous and Coulomb friction per joint); a source that is neither a name nor a file is
+    refused naming the example robots."""
+    text = MINIMAL.replace('model = "direct_drive"', 'model = "urdf"\noptions = { source = "panda" }')
+    text = text.replace('source = "simulate"', 'source = "simulate"\nduration_s = 30.0')
+    cfg = load_study(_write(tmp_path, text))
+    model = make_robot(cfg.robot, cfg.robot_options)
+    assert model.n_joints == 7 and model.p == 7 * 12
+    with pytest.raises(StudyError, match=r"robot.options for urdf: unknown robot 'nao'.*'panda'"):
+        load_study(_write(tmp_path, text.replace('"panda"', '"nao"')))

@@ -3,6 +3,8 @@
 ``ROBOTS[name]`` is a :class:`~boundid.models.RobotModel` class; its ``Options`` (a frozen
 dataclass) is what the study's ``robot.options`` may set, typed by each field's default, and
 ``from_options`` builds the robot. A new robot is its own module plus one line here.
+``"urdf"`` names any URDF arm: ``robot.options = { source = "panda" }`` (an example-robot-data
+name of :data:`boundid.models.urdf_options.EXAMPLE_ROBOTS`) or the path of a .urdf file.
 """
 
 from __future__ import annotations
@@ -15,12 +17,14 @@ from boundid.models.direct_drive import DirectDriveArm
 from boundid.models.h4 import H4Robot
 from boundid.models.pendulum import Pendulum
 from boundid.models.toy import LinearToy
+from boundid.models.urdf_options import UrdfEntry
 
-ROBOTS: dict[str, type[RobotModel]] = {
+ROBOTS: dict[str, type] = {  # RobotModel classes (the urdf entry builds a UrdfRobot)
     "direct_drive": DirectDriveArm,
     "h4": H4Robot,
     "linear_toy": LinearToy,
     "pendulum": Pendulum,
+    "urdf": UrdfEntry,
 }
 
 

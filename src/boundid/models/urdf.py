@@ -60,25 +60,9 @@ from boundid._validation import as_float_array, as_vector
 from boundid.errors import InputError
 from boundid.models.base import RobotModel, coulomb, per_state
 from boundid.models.limits import JointLimits
+from boundid.models.urdf_options import EXAMPLE_ROBOTS, UrdfOptions
 from boundid.sets.constraints import PhysicalConstraints, constraints, linear_rows
 from boundid.sets.constraints import pseudo_inertia as pseudo_inertia_lmi
-
-#: Fixed-base arms of ``example-robot-data``: name -> (URDF path under its ``robots`` folder,
-#: default joint selection, None for every movable joint).
-EXAMPLE_ROBOTS: dict[str, tuple[str, tuple[str, ...] | None]] = {
-    "ur3": ("ur_description/urdf/ur3_robot.urdf", None),
-    "ur5": ("ur_description/urdf/ur5_robot.urdf", None),
-    "ur10": ("ur_description/urdf/ur10_robot.urdf", None),
-    "panda": ("panda_description/urdf/panda.urdf", tuple(f"panda_joint{i}" for i in range(1, 8))),
-    "kinova": ("kinova_description/robots/kinova.urdf", None),
-    "xarm7": ("xarm_description/urdf/xarm7.urdf", None),
-    "z1": ("z1_description/urdf/z1.urdf", tuple(f"joint{i}" for i in range(1, 7))),
-    "so100": ("so_arm_description/urdf/so100.urdf",
-              ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll")),
-    "so101": ("so_arm_description/urdf/so101.urdf",
-              ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll")),
-    "double_pendulum": ("double_pendulum_description/urdf/double_pendulum.urdf", None),
-}
 
 #: Names of the 10 inertial parameters of a body, pinocchio's order (suffixed with the joint number).
 INERTIAL_NAMES = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
@@ -242,6 +226,13 @@ class UrdfRobot(RobotModel):
     who knows the CAD model). ``limits`` holds the :class:`JointLimits` read from the URDF: a
     limit the file does not give is inf (position limits 0, 0 are urdfdom's default for "none").
     """
+
+    #: robot.options: the URDF (an example-robot-data name or a .urdf path)
+    Options = UrdfOptions
+
+    @classmethod
+    def from_options(cls, options: UrdfOptions) -> UrdfRobot:
+        return cls(options.source)
 
     def __init__(self, source: str | Path, joints: Sequence[str] | None = None, *, viscous=None, coulomb=None,
                  with_armature: bool = False, armature=None, with_offset: bool = False, offset=None,
