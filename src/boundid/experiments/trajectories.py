@@ -185,16 +185,13 @@ def exciting_trajectory(robot, rng: np.random.Generator, duration: float = 20.0,
 
     duration : s, total; slow_fraction : share of the slow segment (one period);
     fast_period : s, period of the fast segment, repeated to fill the rest; q0 : rest position
-    (default IK of the home pose for the H4, else zeros); random coefficients from ``rng``, made
-    rest-to-rest and scaled to stay inside the workspace shrunk by ``margin``.
+    (default: the robot's ``rest_position()``, the home pose's angles for the H4); random
+    coefficients from ``rng``, made rest-to-rest and scaled to stay inside the workspace shrunk by ``margin``.
     """
     if not (duration > 0 and 0 < slow_fraction < 1 and fast_period > 0):
         raise InputError("need duration > 0 s, 0 < slow_fraction < 1 and fast_period > 0 s.")
     n = robot.n_joints
-    if q0 is None:
-        geo = getattr(robot, "geometry", None)
-        q0 = robot.inverse_kinematics(np.asarray(geo.home)) if geo is not None else np.zeros(n)
-    q0 = as_vector(q0, "q0", n)
+    q0 = as_vector(robot.rest_position() if q0 is None else q0, "q0", n)
     slow_T = slow_fraction * duration
     reps = max(1, int(round((duration - slow_T) / fast_period)))
     segs = []

@@ -26,6 +26,7 @@ import numpy as np
 
 from boundid._validation import as_float_array
 from boundid.errors import InputError
+from boundid.models.limits import JointLimits
 
 
 def coulomb(qd: np.ndarray, width: float = 0.0) -> np.ndarray:
@@ -68,6 +69,9 @@ class RobotModel(ABC):
     #: a-priori (design) values, (p,), NaN where unknown
     theta_prior: np.ndarray
 
+    #: per-joint limits: position range, velocity, acceleration and effort (the torque limit of
+    #: each joint, N m), or None when the robot declares none (UrdfRobot reads them from its URDF)
+    limits: JointLimits | None = None
     #: the typed options a study's robot.options may set (a frozen dataclass; see :meth:`from_options`)
     Options: type = NoRobotOptions
 
@@ -94,6 +98,10 @@ class RobotModel(ABC):
         acc = np.linalg.solve(self.mass_matrix(qq, th)[0],
                               np.asarray(u, float) - self.bias_torque(qq, vv, th, coulomb_width)[0])
         return acc.tolist()
+
+    def rest_position(self) -> np.ndarray:
+        """Joint angles (n,) an exciting trajectory starts and ends at (default: zeros)."""
+        return np.zeros(self.n_joints)
 
     def zoh_stepper(self):
         """A compiled stepper ``step(q, qd, tau, dt, substeps, coulomb_width, hint) -> (q, qd, hint)``

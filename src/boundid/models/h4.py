@@ -317,6 +317,10 @@ class H4Robot(H4Kinematics, RobotModel):
         """The H4 paper's closed-loop PI experiment (its parallel structure has no open-loop one here)."""
         return ("closed_loop",)
 
+    def rest_position(self) -> np.ndarray:
+        """The motor angles of the home pose (inverse kinematics, eq. 9)."""
+        return self.inverse_kinematics(np.asarray(self.geometry.home))
+
     def zoh_stepper(self):
         """The compiled RK4 stepper of ``_h4_kernels.rk4_zoh`` (warm-started Newton forward model;
         ``hint`` is the pose, the home pose at first); raises UnreachablePoseError when the robot

@@ -17,7 +17,21 @@ from boundid.models.direct_drive import DirectDriveArm
 from boundid.models.h4 import H4Robot
 from boundid.models.pendulum import Pendulum
 from boundid.models.toy import LinearToy
-from boundid.models.urdf_options import UrdfEntry
+from boundid.models.urdf_options import UrdfOptions
+
+
+class UrdfEntry:
+    """The ``"urdf"`` entry: any URDF arm, as :class:`boundid.models.urdf.UrdfRobot` (pinocchio is
+    imported when one is built)."""
+
+    Options = UrdfOptions
+
+    @staticmethod
+    def from_options(options: UrdfOptions) -> RobotModel:
+        from boundid.models.urdf import UrdfRobot
+
+        return UrdfRobot.from_options(options)
+
 
 ROBOTS: dict[str, type] = {  # RobotModel classes (the urdf entry builds a UrdfRobot)
     "direct_drive": DirectDriveArm,

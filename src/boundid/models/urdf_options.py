@@ -1,6 +1,5 @@
 """What a study may say about a URDF robot, without loading pinocchio (~0.5 s): the names of the
-example-robot-data arms, the options dataclass, and the robot registry's ``"urdf"`` entry, which
-builds :class:`boundid.models.urdf.UrdfRobot` (and imports pinocchio) only when asked for one."""
+example-robot-data arms and the options dataclass of :class:`boundid.models.urdf.UrdfRobot`."""
 
 from __future__ import annotations
 
@@ -30,15 +29,3 @@ class UrdfOptions:
     "panda") or the path of a .urdf file (relative to the folder the command runs in)."""
 
     source: str = "ur5"
-
-
-class UrdfEntry:
-    """The robot registry's ``"urdf"``: any URDF arm, as :class:`boundid.models.urdf.UrdfRobot`."""
-
-    Options = UrdfOptions
-
-    @staticmethod
-    def from_options(options: UrdfOptions):
-        from boundid.models.urdf import UrdfRobot  # pinocchio: loaded when a URDF robot is built
-
-        return UrdfRobot.from_options(options)
