@@ -234,7 +234,7 @@ CASES = [
      r"exact\.projections: 'zz' is not a parameter of the direct_drive model"),
     ("estimator option typo", lambda t: _run(_edit(t, 'method = "rls"', 'method = "rls"\nforgeting = 0.9'),
                                              out=str(t)), r"estimators\[1\]\.forgeting: unknown key; the rls .* "
-                                                          r"forgetting \(number > 0, <= 1\)"),
+                                                          r"forgetting \(number > 0, <= 1, default 1.0\)"),
     ("obe without e_max", lambda t: _run(_edit(t, 'method = "rls"', 'method = "obe"'), out=str(t)),
      r"estimators\[1\]\.e_max: is required"),
 ]

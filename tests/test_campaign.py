@@ -182,7 +182,7 @@ def test_in_process_campaign_resumes_and_summary(tmp_path, cfg):
     NaN values, never replaced by another answer."""
     obe = next(e for e in cfg.estimators if e.method == "obe")
     cfg = replace(cfg, estimators=cfg.estimators + (
-        replace(obe, label="OBE-standard", options={**obe.options, "form": "standard"}),))
+        replace(obe, label="OBE-standard", options=replace(obe.options, form="standard")),))
     out = tmp_path / "campaign"
     first = run_campaign(cfg, 2, (BOUNDED, GAUSS), out, workers=0)
     assert sorted(first.computed) == [("bounded", 0), ("bounded", 1), ("gauss", 0), ("gauss", 1)]

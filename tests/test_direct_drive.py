@@ -60,10 +60,10 @@ def test_regressor_equals_independent_dynamics():
             np.testing.assert_allclose(tau[k], ref, rtol=1e-10, atol=1e-10)
             np.testing.assert_allclose(Mb[k], M, rtol=1e-12)
             np.testing.assert_allclose(bias[k], C @ qd[k] + g + f, rtol=1e-10, atol=1e-10)
-            np.testing.assert_allclose(m.momentum_regressor(q[k], qd[k])[0] @ th, M @ qd[k], rtol=1e-10, atol=1e-12)
-            np.testing.assert_allclose(m.energy_regressor(q[k], qd[k])[0] @ th, dd_energy(q[k], qd[k], th),
+            np.testing.assert_allclose(m.momentum_regressor(q[k], qd[k]) @ th, M @ qd[k], rtol=1e-10, atol=1e-12)
+            np.testing.assert_allclose(m.energy_regressor(q[k], qd[k]) @ th, dd_energy(q[k], qd[k], th),
                                        rtol=1e-10, atol=1e-12)
-            np.testing.assert_allclose(m.friction_power_regressor(qd[k])[0] @ th, qd[k] @ f, rtol=1e-10)
+            np.testing.assert_allclose(m.friction_power_regressor(qd[k]) @ th, qd[k] @ f, rtol=1e-10)
 
 
 def test_mass_matrix_positive_definite_and_dynamics_round_trip():

@@ -16,7 +16,7 @@ from boundid.experiments.excitation import RampedMultisine
 from boundid.experiments.filters import FirstOrderFilters, align, cumulative_integral, paper_pairing, zoh_midpoint
 from boundid.experiments.measurement import TorqueNoise
 from boundid.experiments.simulation import measure, simulate_open_loop, simulate_sampled
-from boundid.models import DirectDriveArm, LinearToy
+from boundid.models import DirectDriveArm, LinearToy, RobotModel
 
 H = 2.5e-3
 LAM = 50.0
@@ -67,10 +67,10 @@ def test_fast_path_matches_the_contract_path():
         q, qd, u = rng.normal(0, 2, 2), rng.normal(0, 3, 2), rng.normal(0, 30, 2)
         for w in (0.0, 0.01):
             np.testing.assert_allclose(arm.fast_acceleration(q, qd, u, arm.theta_true, w),
-                                       arm.forward_dynamics(q, qd, u, coulomb_width=w)[0], rtol=1e-12, atol=1e-12)
+                                       arm.forward_dynamics(q, qd, u, coulomb_width=w), rtol=1e-12, atol=1e-12)
 
     class PlainArm(DirectDriveArm):
-        fast_acceleration = None
+        fast_acceleration = RobotModel.fast_acceleration  # the default: mass_matrix and bias_torque
         compiled_acceleration = None
 
     exc = RampedMultisine.direct_drive_paper()

@@ -123,10 +123,10 @@ def test_closed_loop_tracks_with_quantised_encoders_and_saturation(robot, traj):
     assert np.allclose(small.tau, 2.0 * small.v_ref)
 
 
-def test_compiled_closed_loop_repeats_the_step_by_step_loop(robot, traj):
+def test_closed_loop_repeats_the_step_by_step_loop(robot, traj):
     """Reference: the loop of the module docstring written here in numpy, one zoh_step per sample
-    (the kernel rk4_zoh called from Python): the compiled loop gives the same numbers, bit for bit,
-    with and without saturation."""
+    (the robot's compiled stepper called from Python): simulate_closed_loop gives the same numbers,
+    bit for bit, with and without saturation."""
     truth = H4Truth(structural=1.0)
     q0 = robot.inverse_kinematics(np.asarray(robot.geometry.home))
     pid = JointPID.from_bandwidth(np.diag(robot.mass_matrix(q0)), 8.0)

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import base64
+import dataclasses
 import io
+import itertools
 import re
+import typing
 from html.parser import HTMLParser
 
 import numpy as np
@@ -15,6 +18,7 @@ from PIL import Image
 
 from boundid.errors import InputError
 from boundid.estimators import Estimate, History
+from boundid.estimators.registry import METHODS
 from boundid.report import (
     PALETTE,
     Page,
@@ -26,9 +30,11 @@ from boundid.report import (
     latex_table,
     log_volume_bars,
     markdown_table,
+    method_styles,
     parameter_convergence,
     parameter_table,
     projection_2d,
+    style_for,
     torque_bounds,
     trajectory_comparison,
     volume_history,
@@ -56,21 +62,38 @@ def _estimate(label, radius=0.3, kind="guaranteed"):
                     names=tuple(NAMES), history=_history(), time_s=0.01)
 
 
-# ------------------------------------------------------------------------------------ palette
-def test_palette_colours_are_fixed_per_estimator():
-    """Reference: the PALETTE table itself; variants of a method's label share its colour and
-    different methods get different colours; unknown labels are stable across calls."""
-    assert color_for("OBE-factorized (volume)") == color_for("OBE-factorized (trace)") == PALETTE["OBE-factorized"]
-    assert color_for("OBE (trace)") == PALETTE["OBE-standard"]
-    assert color_for("WLS 95 %") == PALETTE["WLS"]
-    assert color_for("RLS") == PALETTE["RLS"]
-    assert color_for("John ellipsoid") == PALETTE["John"]
-    assert color_for("SDP outer (min volume)") == PALETTE["SDP outer"]
-    assert color_for("LP exact") == PALETTE["LP exact"]
-    methods = ["OBE-factorized", "OBE-standard", "WLS", "OLS", "RLS", "Kalman", "LP exact", "SDP outer", "John",
-               "inner"]
-    assert len({color_for(m) for m in methods}) == len(methods)
-    assert color_for("my new method") == color_for("my new method")
+# ------------------------------------------------------------------------------------ styles
+def _variants():
+    """Every registered method with every combination of its Literal options."""
+    for m in METHODS.values():
+        hints = typing.get_type_hints(m.options)
+        choices = {f.name: typing.get_args(hints[f.name]) for f in dataclasses.fields(m.options)
+                   if typing.get_origin(hints[f.name]) is typing.Literal}
+        for combo in itertools.product(*choices.values()):
+            yield m, m.options(**dict(zip(choices, combo, strict=True)))
+
+
+def test_every_method_and_variant_has_its_own_style():
+    """Reference: the registry itself: Method.style_for of every method and Literal variant gives
+    a distinct (colour, marker, line style), and no method takes a reference's colour."""
+    styles = [m.style_for(o) for m, o in _variants()]
+    assert len(styles) >= len(METHODS) + 5  # obe: 2 forms x 3 criteria
+    assert len(set(styles)) == len(styles)
+    assert not {s.color for s in styles} & set(PALETTE.values())
+
+
+def test_figure_colours_come_from_the_method_styles():
+    """Reference: Method.style_for: a figure label naming a study's estimator label (alone, or
+    followed by " / regression" or " (unverified)") takes that estimator's style; references keep
+    their PALETTE colour; other labels a stable colour."""
+    fac = METHODS["obe"].style_for(METHODS["obe"].options(form="factorized"))
+    std = METHODS["obe"].style_for(METHODS["obe"].options(form="standard"))
+    with method_styles({"OBE": fac, "OBE-std": std, "RLS": METHODS["rls"].style_for()}):
+        assert style_for("OBE / filtered_dynamic") == style_for("OBE (unverified)") == fac
+        assert color_for("OBE-std") == std.color != fac.color
+        assert color_for("RLS / supplied_energy") == METHODS["rls"].style.color
+    assert color_for("SDP outer") == PALETTE["SDP outer"] and color_for("LP exact") == PALETTE["LP exact"]
+    assert color_for("OBE") == color_for("OBE")  # outside the block: a fixed colour by its hash
 
 
 # ------------------------------------------------------------------------------------ figures
@@ -79,14 +102,16 @@ def test_parameter_convergence_draws_each_history_and_truth():
     centres, x-data equals t[index], and the truth line sits at the true value."""
     t = np.arange(100) * 0.01
     hists = {"OBE-factorized (volume)": _history(seed=1), "RLS": (_history(seed=2).index, _history(seed=2).centers)}
-    fig = parameter_convergence(t, hists, TRUTH, NAMES, units=["kg", "kg m^2", "N m s"])
+    obe = METHODS["obe"].style_for()
+    with method_styles({"OBE-factorized": obe}):
+        fig = parameter_convergence(t, hists, TRUTH, NAMES, units=["kg", "kg m^2", "N m s"])
     assert isinstance(fig, Figure) and len(fig.axes) == 3
     h = hists["OBE-factorized (volume)"]
     for j, ax in enumerate(fig.axes):
         line = ax.lines[0]
         np.testing.assert_array_equal(line.get_ydata(), h.centers[:, j])
         np.testing.assert_array_equal(line.get_xdata(), t[h.index])
-        assert line.get_color().lower() == PALETTE["OBE-factorized"].lower()
+        assert line.get_color().lower() == obe.color.lower()
         assert np.allclose(ax.lines[-1].get_ydata(), TRUTH[j])  # the dashed truth line
     assert fig.axes[1].get_ylabel() == "I^2 [kg m^2]"
     thinned = parameter_convergence(t, {"RLS": h}, max_points=10)  # 30 points -> every 3rd

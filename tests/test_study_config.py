@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 
 from boundid.errors import InputError, StudyError
+from boundid.estimators.registry import METHODS
 from boundid.experiments.recording import Recording, read_recording, write_recording
 from boundid.studies.config import REGRESSIONS, load_study
+from boundid.studies.registry import make_robot
 
 STUDIES = sorted((Path(__file__).parents[1] / "studies").glob("*.toml"))
 
@@ -94,12 +96,16 @@ def test_recording_errors_name_the_problem(tmp_path):
         read_recording(path, "t", ["q1"], ["tau1"])
 
 
-def test_obe_bound_must_match_the_exact_polytope(tmp_path):
-    """An OBE certified against a polytope of another bound would be a meaningless comparison."""
-    text = MINIMAL + ('[[estimators]]\nmethod = "obe"\nregressions = ["inverse_dynamic"]\ne_max = 2.0\n'
-                      '[exact]\nregression = "inverse_dynamic"\ne_max = 3.0\n')
-    with pytest.raises(StudyError, match=r"exact\.e_max: is 3.0 but estimator 'OBE'"):
+@pytest.mark.parametrize("method", [m.name for m in METHODS.values() if m.needs_bound])
+def test_bound_must_match_the_exact_polytope(tmp_path, method):
+    """A guaranteed set certified against a polytope of another bound would be a meaningless
+    comparison: the rule holds for every registered method that needs e_max, which is required."""
+    table = f'[[estimators]]\nmethod = "{method}"\nregressions = ["inverse_dynamic"]\n'
+    text = MINIMAL + table + 'e_max = 2.0\n[exact]\nregression = "inverse_dynamic"\ne_max = 3.0\n'
+    with pytest.raises(StudyError, match=rf"exact\.e_max: is 3.0 but estimator '{method.upper()}'"):
         load_study(_write(tmp_path, text))
+    with pytest.raises(StudyError, match=rf"estimators\[1\]\.e_max: is required for a {method} estimator"):
+        load_study(_write(tmp_path, MINIMAL + table))
 
 
 def test_options_tables_are_typed_by_their_defaults(tmp_path):
@@ -124,8 +130,12 @@ def test_options_tables_are_typed_by_their_defaults(tmp_path):
 
 def test_estimator_options_are_checked_when_read(tmp_path):
     """Ranges the estimators would refuse only when run are refused when the study is read."""
-    for option, match in [("forgetting = 1.5", r"forgetting: must be <= 1.0"), ("P0 = 0", r"P0: must be > 0.0"),
-                          ('P0 = "big"', r"P0: must be a number")]:
+    for option, match in [("forgetting = 1.5", r"forgetting: must be <= 1.0"), ("shape0 = 0", r"shape0: must be > 0.0"),
+                          ('shape0 = "big"', r"shape0: must be a number"),
+                          ("P0 = 10.0", r"P0: was renamed 'shape0'.*write shape0 = 10.0"),
+                          ("theta0 = 0.0", r"theta0: was renamed 'center0'"),
+                          ("bogus = 1", r"bogus: unknown key; the rls estimator takes .*center0 \(number, "
+                                        r"default 0.0\), shape0 \(number > 0, default 1000.0\), forgetting")]:
         text = MINIMAL + f'[[estimators]]\nmethod = "rls"\nregressions = ["inverse_dynamic"]\n{option}\n'
         with pytest.raises(StudyError, match=r"estimators\[1\]\." + match):
             load_study(_write(tmp_path, text))
@@ -189,3 +199,16 @@ def test_recording_cells_are_named_by_column_and_row(tmp_path):
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(InputError, match=r"column 'q1', data row 3: '1.0e' is not a number"):
         read_recording(path, "t", ["q1"], ["tau1"])
+
+
+def test_a_study_names_any_urdf_robot(tmp_path):
+    """Reference: example-robot-data's panda URDF (7 arm joints, 10 inertial parameters per link
+    plus viscous and Coulomb friction per joint); a source that is neither a name nor a file is
+    refused naming the example robots."""
+    text = MINIMAL.replace('model = "direct_drive"', 'model = "urdf"\noptions = { source = "panda" }')
+    text = text.replace('source = "simulate"', 'source = "simulate"\nduration_s = 30.0')
+    cfg = load_study(_write(tmp_path, text))
+    model = make_robot(cfg.robot, cfg.robot_options)
+    assert model.n_joints == 7 and model.p == 7 * 12
+    with pytest.raises(StudyError, match=r"robot.options for urdf: unknown robot 'nao'.*'panda'"):
+        load_study(_write(tmp_path, text.replace('"panda"', '"nao"')))

@@ -86,7 +86,7 @@ def test_regressor_times_urdf_theta_equals_rnea(robots, name):
     tau = robot.regressor(q, qd, qdd) @ robot.theta_true
     ref = np.array([pin.rnea(model, data, q[k], qd[k], qdd[k]) for k in range(len(q))]) + friction(robot, qd)
     assert np.abs(tau - ref).max() < 1e-10
-    assert robot.regressor(q[0], qd[0], qdd[0]).shape == (1, robot.n_joints, robot.p)
+    assert robot.regressor(q[0], qd[0], qdd[0]).shape == (robot.n_joints, robot.p)  # one state: no sample axis
 
 
 @pytest.mark.parametrize("name", ARMS)
@@ -130,7 +130,7 @@ def test_remainder_regressor_by_finite_differences(robots, name):
         lhs = dp + robot.remainder_regressor(q, qd) @ th
         np.testing.assert_allclose(lhs, robot.regressor(q, qd, qdd) @ th, atol=1e-6)
         gravity = pin.computeGeneralizedGravity(model, data, q)
-        dK_dq = gravity + friction(robot, qd[None])[0] - (robot.remainder_regressor(q, qd) @ th)[0]
+        dK_dq = gravity + friction(robot, qd[None])[0] - robot.remainder_regressor(q, qd) @ th
         C = pin.computeCoriolisMatrix(model, data, q, qd)
         np.testing.assert_allclose(dK_dq, C.T @ qd, atol=1e-12)
         e = 1e-6
@@ -186,7 +186,7 @@ def test_continuous_joints_use_cos_sin_configuration():
         for j in range(robot.n_joints):
             config += [np.cos(q[k, j]), np.sin(q[k, j])] if model.nqs[j + 1] == 2 else [q[k, j]]
         tau = pin.rnea(model, data, np.array(config), qd[k], qdd[k])
-        np.testing.assert_allclose(robot.regressor(q[k], qd[k], qdd[k])[0, :, :60] @ robot.theta_true[:60], tau,
+        np.testing.assert_allclose(robot.regressor(q[k], qd[k], qdd[k])[:, :60] @ robot.theta_true[:60], tau,
                                    atol=1e-10)
 
 

@@ -175,15 +175,22 @@ def cmd_teach(args) -> int:
 
 
 def cmd_list(args) -> int:
-    from boundid.studies.registry import ESTIMATORS, REGRESSIONS, ROBOTS
+    from boundid.estimators.registry import METHODS
+    from boundid.models.registry import ROBOTS, make_robot, robot_options
+    from boundid.models.urdf_options import EXAMPLE_ROBOTS
+    from boundid.studies.config import option_help
+    from boundid.studies.registry import REGRESSIONS
 
     print("robots:")
-    for name, factory in ROBOTS.items():
-        model = factory({})
-        print(f"  {name:<14} {model.n_joints} joints, {model.p} parameters: {', '.join(model.param_names)}")
-    print("estimators:")
-    for name, doc in ESTIMATORS.items():
-        print(f"  {name:<14} {doc}")
+    for name in ROBOTS:
+        model = make_robot(name)  # the urdf entry: its default arm
+        print(f"  {name:<14} {model.n_joints} joints, {model.p} parameters: {', '.join(model.param_names)}; "
+              f"experiments: {', '.join(model.experiments) or 'measured data only'}\n  {'':<14} robot.options: "
+              f"{', '.join(robot_options(name)) or 'none'}")
+    print(f"  {'':<14} urdf: robot.options.source = a .urdf path or one of {', '.join(EXAMPLE_ROBOTS)}")
+    print("estimators (method = ...; the options of each [[estimators]] table):")
+    for name, m in METHODS.items():
+        print(f"  {name:<16} {m.summary} [{m.kind}, {m.set_family}]\n  {'':<16} {option_help(m)}")
     print("regression models:")
     for name, doc in REGRESSIONS.items():
         print(f"  {name:<18} {doc}")

@@ -32,7 +32,7 @@ from PIL import Image
 
 from boundid.errors import InputError, StudyError
 from boundid.report.figure_check import figure_problems
-from boundid.report.html import Page, _paragraphs, _slug, _Table, write_index
+from boundid.report.html import Page, Table, paragraphs, slug, write_index
 from boundid.report.output import check_out_dir, replace_folder
 from boundid.resources import find_folder
 
@@ -108,7 +108,7 @@ class _Exercises:
     items: list[tuple[str, str]]
 
     def html(self) -> str:
-        lis = "".join(f"<li>{_paragraphs(q)}</li>" for q, _ in self.items)
+        lis = "".join(f"<li>{paragraphs(q)}</li>" for q, _ in self.items)
         return f'<ol class="exercises">{lis}</ol>'
 
     def markdown(self) -> str:
@@ -120,7 +120,7 @@ class _Key:
     items: list[tuple[str, str]]
 
     def html(self) -> str:
-        lis = "".join(f'<li><div class="q">{_paragraphs(q)}</div><div class="a"><b>Answer.</b>{_paragraphs(a)}</div>'
+        lis = "".join(f'<li><div class="q">{paragraphs(q)}</div><div class="a"><b>Answer.</b>{paragraphs(a)}</div>'
                       "</li>" for q, a in self.items)
         return ('<details class="key"><summary>For instructors: the answers, computed by this run '
                 f'(click to open)</summary><ol>{lis}</ol></details>')
@@ -335,7 +335,7 @@ class Handout(Page):
                              "frame the same figsize (and no tight bounding box), so the axes stay fixed.")
         first = not any(isinstance(b, _Stepper) for s in self._sections for b in s.blocks)
         self._sections[-1].blocks.append(_Stepper(pngs, [str(t) for t in labels], caption,
-                                                  _slug(name, self._names), sizes.pop(), delay_ms, first))
+                                                  slug(name, self._names), sizes.pop(), delay_ms, first))
         return self
 
     def exercises(self, items: Sequence[tuple[str, str]]) -> Handout:
@@ -354,7 +354,7 @@ class Handout(Page):
     def _block_html(self, block) -> str:
         if isinstance(block, _BLOCKS):
             return block.html()
-        if isinstance(block, _Table):  # yes/no on the page; the CSV keeps True/False
+        if isinstance(block, Table):  # yes/no on the page; the CSV keeps True/False
             df = block.df.copy()
             for col in df.columns[[pd.api.types.is_bool_dtype(t) for t in df.dtypes]]:
                 df[col] = df[col].map({True: "yes", False: "no"})

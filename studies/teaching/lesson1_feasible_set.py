@@ -16,7 +16,7 @@ from matplotlib.patches import Polygon as PolygonPatch
 from matplotlib.patches import Rectangle
 
 from boundid.models import LinearToy
-from boundid.report import color_for
+from boundid.report import PALETTE
 from boundid.sets import Ellipsoid, Polytope, inner_ellipsoid, john_outer, outer_ellipsoid
 from boundid.teaching import Handout, fast_mode, fmt, output_dir
 
@@ -93,18 +93,19 @@ fig.supylabel(LABELS[1])
 ells = {"inner (max volume)": inner_ellipsoid(P).ellipsoid,
         "SDP outer": outer_ellipsoid(P).ellipsoid,
         "John (2 x inner)": john_outer(P).ellipsoid}
+colors = dict(zip(ells, (PALETTE["SDP inner"], PALETTE["SDP outer"], PALETTE["SDP john"]), strict=True))  # the report's
 far = np.vstack([E.boundary() for E in ells.values()] + [vertices])
 zoom = square_window(box.center, 1.15 * np.abs(far - box.center).max())
 fig2 = Figure(figsize=(8.6, 5.6), layout="constrained")
 ax = fig2.subplots()
 ax.add_patch(PolygonPatch(vertices, closed=True, fc="#cccccc", ec="k", lw=1.5, label="exact polygon P"))
 ax.plot(*vertices.T, "ko", ms=3)
-ax.add_patch(Rectangle(box.lo, *(box.hi - box.lo), fc="none", ec=color_for("LP exact"), ls="--", lw=1.2,
+ax.add_patch(Rectangle(box.lo, *(box.hi - box.lo), fc="none", ec=PALETTE["LP exact"], ls="--", lw=1.2,
                        label="LP box"))
 ax.plot(*Ellipsoid.ball(cheb_x, cheb_r).boundary().T, color="#CC79A7", lw=1.5, ls=":", label="Chebyshev disc")
 ax.plot(*cheb_x, "+", color="#CC79A7", ms=12, mew=2, label="Chebyshev centre")
 for (label, E), ls in zip(ells.items(), ("-", "--", "-."), strict=True):
-    ax.plot(*E.boundary().T, color=color_for(label), lw=1.8, ls=ls, label=label)
+    ax.plot(*E.boundary().T, color=colors[label], lw=1.8, ls=ls, label=label)
 ax.plot(*theta_true, "k*", ms=12, label="truth")
 ax.set(xlim=(zoom[0][0], zoom[1][0]), ylim=(zoom[0][1], zoom[1][1]), aspect="equal",
        xlabel=LABELS[0], ylabel=LABELS[1])

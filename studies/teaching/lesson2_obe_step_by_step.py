@@ -18,10 +18,13 @@ from matplotlib.ticker import MaxNLocator
 
 from boundid.errors import InfeasibleDataError
 from boundid.estimators import OBE, validate
+from boundid.estimators.registry import METHODS
 from boundid.models import LinearToy
-from boundid.report import color_for
 from boundid.sets import Box, Ellipsoid, Polytope, step_ellipsoid
 from boundid.teaching import Handout, fast_mode, fmt, output_dir, series_style
+
+# the report's styles of the factorized OBE and OLS (boundid.estimators.registry)
+OBE_COLOR = METHODS["obe"].style_for().color
 
 FAST = fast_mode()
 N = 14 if FAST else 40             # strips
@@ -119,7 +122,7 @@ legend_handles = [Patch(fc="#dddddd", ec="k", label="exact polygon so far"),
                   Patch(fc=COLORS["skipped"], alpha=0.3, label="strip: skipped"),
                   Patch(fc=COLORS["outlier"], alpha=0.3, label="strip: outlier"),
                   Line2D([], [], ls="--", color="#56B4E9", lw=1.5, label="ellipse before"),
-                  Line2D([], [], color=color_for("OBE-factorized"), lw=2, label="ellipse after"),
+                  Line2D([], [], color=OBE_COLOR, lw=2, label="ellipse after"),
                   Line2D([], [], ls="", marker="*", color="k", ms=11, label="truth")]
 frames, frame_labels = [], []
 for k, s in enumerate(steps):
@@ -137,7 +140,7 @@ for k, s in enumerate(steps):
             ax.add_patch(PolygonPatch(ordered(band.vertices()), closed=True, fc=COLORS[s["event"]], alpha=0.3,
                                       lw=0))
         ax.plot(*s["E_prev"].boundary().T, "--", color="#56B4E9", lw=1.5)
-        ax.plot(*s["E"].boundary().T, color=color_for("OBE-factorized"), lw=2)
+        ax.plot(*s["E"].boundary().T, color=OBE_COLOR, lw=2)
         ax.plot(*theta_true, "k*", ms=11)
         ax.set(xlim=(lo[0], hi[0]), ylim=(lo[1], hi[1]), aspect="equal", xlabel=LABELS[0], ylabel=LABELS[1])
         ax.set_title(title, fontsize=12)

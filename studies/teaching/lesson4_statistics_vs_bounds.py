@@ -19,10 +19,14 @@ from matplotlib.patches import Polygon as PolygonPatch
 from matplotlib.ticker import MaxNLocator
 
 from boundid.estimators import OBE, ols
+from boundid.estimators.registry import METHODS
 from boundid.models import LinearToy
-from boundid.report import color_for
 from boundid.sets import Box, Polytope
 from boundid.teaching import Handout, fast_mode, fmt, output_dir
+
+# the report's styles of the factorized OBE and OLS (boundid.estimators.registry)
+OBE_COLOR = METHODS["obe"].style_for().color
+OLS_COLOR = METHODS["ols"].style_for().color
 
 FAST = fast_mode()
 N = 60 if FAST else 200            # samples per experiment
@@ -88,9 +92,9 @@ for ax, kind in zip(axes, SCENARIOS, strict=False):
     obe = OBE(2, prior=Box.from_center(prior, prior_half), names=("J", "mgl")).fit(W, y, E_MAX)
     if P is not None:
         ax.add_patch(PolygonPatch(ordered(P.vertices()), closed=True, fc="#dddddd", ec="k", lw=1))
-    ax.plot(*obe.set.boundary().T, color=color_for("OBE-factorized"), lw=1.8)
-    ax.plot(*obe.center, "o", color=color_for("OBE-factorized"), ms=5)      # visible even when the ellipse is tiny
-    ax.plot(*ls.set.boundary().T, color=color_for("OLS"), lw=1.8, ls="--")
+    ax.plot(*obe.set.boundary().T, color=OBE_COLOR, lw=1.8)
+    ax.plot(*obe.center, "o", color=OBE_COLOR, ms=5)      # visible even when the ellipse is tiny
+    ax.plot(*ls.set.boundary().T, color=OLS_COLOR, lw=1.8, ls="--")
     ax.plot(*theta_true, "k*", ms=10)
     drawn = np.vstack([obe.set.boundary(), ls.set.boundary(), theta_true[None, :]]
                       + ([P.vertices()] if P is not None else []))
@@ -108,9 +112,9 @@ for ax, kind in zip(axes, SCENARIOS, strict=False):
 for ax in axes[len(SCENARIOS):]:
     ax.set_axis_off()
 fig.legend(handles=[Patch(fc="#dddddd", ec="k", label="exact set"),
-                    Line2D([], [], color=color_for("OBE-factorized"), lw=1.8, marker="o", ms=5,
+                    Line2D([], [], color=OBE_COLOR, lw=1.8, marker="o", ms=5,
                            label="OBE (dot: centre)"),
-                    Line2D([], [], color=color_for("OLS"), lw=1.8, ls="--", label="OLS 95 %"),
+                    Line2D([], [], color=OLS_COLOR, lw=1.8, ls="--", label="OLS 95 %"),
                     Line2D([], [], ls="", marker="*", color="k", ms=10, label="truth")],
            loc="outside right upper", fontsize=10)
 single = pd.DataFrame.from_dict(rows, orient="index").rename_axis("scenario")

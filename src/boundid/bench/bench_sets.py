@@ -16,8 +16,7 @@ from scipy.optimize import linprog
 
 from boundid.bench.goals import Goal
 from boundid.sets import Polytope, log_unit_ball_volume, sdp
-from boundid.sets._working_set import WorkingSetLP
-from boundid.sets.polytope import _TOUCH_TOL, LP_TOL
+from boundid.sets.polytope import LP_TOL, TOUCH_TOL, WorkingSetLP
 
 #: where the study-scale regressions are cached (git-ignored; BOUNDID_CACHE overrides)
 CACHE = Path(os.environ.get("BOUNDID_CACHE", ".cache/boundid"))
@@ -229,7 +228,7 @@ def _previous_nonredundant(P: Polytope) -> np.ndarray:
     up_s, lo_s = blk.up.copy(), blk.lo.copy()
     G = P.W * scale / P._frame.n[:, None]
     reach = np.abs(G).sum(axis=1)
-    up_c, lo_c = reach > up_s - _TOUCH_TOL * (1 + np.abs(up_s)), -reach < lo_s + _TOUCH_TOL * (1 + np.abs(lo_s))
+    up_c, lo_c = reach > up_s - TOUCH_TOL * (1 + np.abs(up_s)), -reach < lo_s + TOUCH_TOL * (1 + np.abs(lo_s))
     eng = WorkingSetLP([blk], *P._col_bounds(P._frame), seed=[(0, P._engine.ws_rows(0))], tol=LP_TOL)
     blk.up[~up_c], blk.lo[~lo_c] = np.inf, -np.inf
     for k in np.flatnonzero(~up_c | ~lo_c):
@@ -242,7 +241,7 @@ def _previous_nonredundant(P: Polytope) -> np.ndarray:
                 continue
             eng.set_bounds(0, k, blk.lo[k], bound + 1.0) if side > 0 else eng.set_bounds(0, k, bound - 1.0, blk.up[k])
             v = side * float(G[k] @ eng.minimize(-side * G[k])[0])
-            if v > side * bound + _TOUCH_TOL * (1 + abs(bound)):
+            if v > side * bound + TOUCH_TOL * (1 + abs(bound)):
                 keep[k] = True
                 eng.set_bounds(0, k, blk.lo[k], up_s[k]) if side > 0 else eng.set_bounds(0, k, lo_s[k], blk.up[k])
             else:

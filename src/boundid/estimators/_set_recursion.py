@@ -175,3 +175,10 @@ class SetRecursion(RecursiveEstimator):
     @property
     def _stop(self) -> bool:
         return self.on_outlier == "raise"
+
+
+def fit_problem(cls: type[SetRecursion], problem, **options):
+    """``cls`` from the problem's prior box, fitted to its rows with its bound e_max (the build
+    function of the set families' registry entries, :mod:`boundid.estimators.method`)."""
+    est = cls(problem.p, prior=problem.prior, record_every=problem.record_every, names=problem.names, **options)
+    return est.fit(problem.W, problem.y, problem.e_max)

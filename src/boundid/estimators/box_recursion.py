@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from boundid.estimators import _set_kernels as K
-from boundid.estimators._set_recursion import Run, SetRecursion, clip_strip
+from boundid.estimators._set_recursion import Run, SetRecursion, clip_strip, fit_problem
+from boundid.estimators.method import Method, NoOptions, Style
 from boundid.sets.box import Box
 
 
@@ -61,3 +62,8 @@ class BoxRecursion(SetRecursion):
 
     def current_set(self) -> Box:
         return Box(self.lo, self.hi)
+
+
+METHOD = Method(name="box", summary="recursive box: the interval hull of box ∩ strip, O(p) per sample",
+                options=NoOptions, build=lambda pb, o: fit_problem(BoxRecursion, pb), set_family="box",
+                kind="guaranteed", needs_bound=True, style=Style("#332288", "D", "--"))

@@ -19,6 +19,7 @@ theta_j -+ z_{(1+level)/2} sqrt(P_jj) (normal quantile; ``statistics.dof`` = inf
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
@@ -27,6 +28,7 @@ from scipy import stats
 from boundid._validation import as_float_array
 from boundid.errors import InputError, NumericalError
 from boundid.estimators.estimate import Estimate
+from boundid.estimators.method import Method, Problem, Style, option
 from boundid.estimators.protocol import check_p
 from boundid.estimators.rls import LinearFilter
 from boundid.sets.ellipsoid import log_unit_ball_volume
@@ -187,3 +189,26 @@ class KalmanEstimator(LinearFilter):
             self.R,
             {"nis": self.J / self.n if self.n else np.nan, "R": self.R, "Q": self.Q},
         )
+
+
+# ------------------------------------------------------------------------------ registry entry
+
+
+@dataclass(frozen=True)
+class KalmanOptions:
+    """What a study file may set for ``method = "kalman"``."""
+
+    center0: float = option(0.0, "x(0), every parameter (parameter units)", renamed_from=("theta0",))
+    shape0: float = option(1000.0, "P(0) = shape0 I", lo=0.0, strict_lo=True, renamed_from=("P0",))
+    R: float = option(1.0, "measurement noise variance of one row (units of y squared)", lo=0.0, strict_lo=True)
+    Q: float = option(0.0, "random-walk variance per sample, Q = Q I (0: constant parameters)", lo=0.0)
+
+
+def _build(problem: Problem, o: KalmanOptions) -> Estimate:
+    return KalmanEstimator(problem.p, center0=o.center0, shape0=o.shape0, R=o.R, Q=o.Q,
+                           record_every=problem.record_every, names=problem.names).fit(problem.W, problem.y)
+
+
+METHOD = Method(name="kalman", summary="Kalman filter with the parameters as state, confidence ellipsoid",
+                options=KalmanOptions, build=_build, set_family="ellipsoid", kind="statistical",
+                needs_bound=False, style=Style("#882255", "v", "-"))

@@ -19,7 +19,7 @@ under the noise model, never with certainty.
 from __future__ import annotations
 
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg
@@ -28,6 +28,7 @@ from scipy import stats
 from boundid._validation import as_regression
 from boundid.errors import InputError
 from boundid.estimators.estimate import Estimate, Statistics
+from boundid.estimators.method import Method, Style, option
 from boundid.estimators.protocol import check_names
 from boundid.sets.ellipsoid import Ellipsoid
 
@@ -254,3 +255,23 @@ def wls(W, y, groups, level: float = 0.95, names=None) -> Estimate:
     est.statistics = replace(est.statistics, noise_variance={g: s**2 for g, s in sigma_groups.items()})
     est.info.update({"sigma_groups": sigma_groups, "groups": labels, "sigma_group_values": sig})
     return est
+
+
+# ------------------------------------------------------------------------------ registry entries
+
+
+@dataclass(frozen=True)
+class LevelOptions:
+    """What a study file may set for ``method = "ols"`` or ``"wls"``."""
+
+    level: float = option(0.95, "confidence level of the intervals and the ellipsoid", lo=0.0, strict_lo=True,
+                          hi=1.0, strict_hi=True)
+
+
+OLS_METHOD = Method(name="ols", summary="ordinary least squares with Student-t intervals",
+                    options=LevelOptions, build=lambda pb, o: ols(pb.W, pb.y, level=o.level, names=pb.names),
+                    set_family="ellipsoid", kind="statistical", needs_bound=False, style=Style("#E69F00", "P", "-"))
+WLS_METHOD = Method(name="wls", summary="IDIM-WLS: rows weighted by each joint's residual standard deviation",
+                    options=LevelOptions,
+                    build=lambda pb, o: wls(pb.W, pb.y, pb.groups, level=o.level, names=pb.names),
+                    set_family="ellipsoid", kind="statistical", needs_bound=False, style=Style("#D55E00", "X", "-"))

@@ -43,6 +43,8 @@ recorded and skipped, or raise :class:`InfeasibleDataError`.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -50,6 +52,7 @@ from boundid._validation import as_bounds, as_float_array, as_regression
 from boundid.errors import InfeasibleDataError, InputError, SolverError
 from boundid.estimators import _obe_kernels as K
 from boundid.estimators.estimate import Estimate, History
+from boundid.estimators.method import Method, Problem, Style, option
 from boundid.estimators.protocol import RecursiveEstimator, ellipsoid_prior
 from boundid.sets.ellipsoid import Ellipsoid, log_unit_ball_volume
 
@@ -361,3 +364,31 @@ class OBE(RecursiveEstimator):
             n_updates=self.n_updates, n_skipped=self.n_skipped, time_s=self.time_s, error_bound=bound,
             inflation=inflation, unverified_reason=reason, info=info,
         )
+
+
+# ------------------------------------------------------------------------------ registry entry
+
+
+@dataclass(frozen=True)
+class OBEOptions:
+    """What a study file may set for ``method = "obe"`` (e_max is the study's bound, Problem.e_max)."""
+
+    form: Literal["standard", "factorized"] = option("factorized", "standard (Sherman-Morrison, [H4Paper] eqs. "
+                                                     "28-30) or factorized (QR, eqs. 33-35)")
+    criterion: Literal["volume", "trace", "dasgupta-huang"] = option(
+        "volume", "the weight's criterion: volume [FogelHuang1982], trace, or sigma [DasguptaHuang1987]")
+
+
+def _build(problem: Problem, o: OBEOptions) -> Estimate:
+    return OBE(problem.p, prior=problem.prior, criterion=o.criterion, form=o.form, record_every=problem.record_every,
+               names=problem.names).fit(problem.W, problem.y, problem.e_max)
+
+
+# colour by form (Okabe-Ito blue, sky blue), marker and dash by criterion: six distinct variants
+_OBE_COLOR = {"factorized": "#0072B2", "standard": "#56B4E9"}
+_OBE_MARK = {"volume": ("o", "-"), "trace": ("s", "--"), "dasgupta-huang": ("^", "-.")}
+
+METHOD = Method(
+    name="obe", summary="Optimal Bounding Ellipsoid: guaranteed ellipsoid, one strip at a time",
+    options=OBEOptions, build=_build, set_family="ellipsoid", kind="guaranteed", needs_bound=True,
+    style=lambda o: Style(_OBE_COLOR[o.form], *_OBE_MARK[o.criterion]))

@@ -19,11 +19,14 @@ set makes the result "unverified", with the OBE's reason.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from boundid.errors import InfeasibleDataError, InputError, SolverError
 from boundid.estimators._set_kernels import ROUND_GUARD
-from boundid.estimators._set_recursion import Run, SetRecursion
+from boundid.estimators._set_recursion import Run, SetRecursion, fit_problem
+from boundid.estimators.method import Method, Style, option
 from boundid.estimators.obe import OBE
 from boundid.sets.box import Box
 from boundid.sets.ellipsoid import Ellipsoid
@@ -191,3 +194,30 @@ class WindowedOBE(_OBEVariant):
 
     def _info(self) -> dict:
         return {"window": self.window, "n_resets": self.n_resets, "n_reset_failures": self.n_reset_failures}
+
+
+# ------------------------------------------------------------------------------ registry entries
+
+
+@dataclass(frozen=True)
+class BoxedOBEOptions:
+    """What a study file may set for ``method = "obe_boxed"``."""
+
+    box_every: int | None = option(None, "samples between the prior box's strips (default 100 p)", lo=1)
+
+
+@dataclass(frozen=True)
+class WindowedOBEOptions:
+    """What a study file may set for ``method = "obe_windowed"``."""
+
+    window: int | None = option(None, "samples per window before the outer-ellipsoid reset (default 20 p)", lo=1)
+
+
+BOXED_METHOD = Method(
+    name="obe_boxed", summary="OBE (factorized, volume) with the prior box as strips every box_every samples",
+    options=BoxedOBEOptions, build=lambda pb, o: fit_problem(BoxedOBE, pb, box_every=o.box_every),
+    set_family="ellipsoid", kind="guaranteed", needs_bound=True, style=Style("#88CCEE", "<", "--"))
+WINDOWED_METHOD = Method(
+    name="obe_windowed", summary="OBE (factorized, volume) reset per window to the SDP outer ellipsoid of its strips",
+    options=WindowedOBEOptions, build=lambda pb, o: fit_problem(WindowedOBE, pb, window=o.window),
+    set_family="ellipsoid", kind="guaranteed", needs_bound=True, style=Style("#DDCC77", ">", "--"))

@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 
 from boundid.estimators import _set_kernels as K
-from boundid.estimators._set_recursion import Run, SetRecursion, clip_strip
+from boundid.estimators._set_recursion import Run, SetRecursion, clip_strip, fit_problem
+from boundid.estimators.method import Method, NoOptions, Style
 from boundid.sets.parallelotope import Parallelotope
 
 
@@ -80,3 +81,8 @@ class ParallelotopeRecursion(SetRecursion):
 
     def _center(self, S) -> np.ndarray:
         return S.center.copy()
+
+
+METHOD = Method(name="parallelotope", summary="recursive parallelotope: least-volume candidate of p + 1 per strip",
+                options=NoOptions, build=lambda pb, o: fit_problem(ParallelotopeRecursion, pb),
+                set_family="parallelotope", kind="guaranteed", needs_bound=True, style=Style("#117733", "s", "--"))

@@ -13,12 +13,14 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from boundid.errors import InputError
 from boundid.estimators import _set_kernels as K
-from boundid.estimators._set_recursion import Run, SetRecursion, clip_strip
+from boundid.estimators._set_recursion import Run, SetRecursion, clip_strip, fit_problem
+from boundid.estimators.method import Method, NoOptions, Style, option
 from boundid.sets.box import Box
 from boundid.sets.polytope import Polytope
 from boundid.sets.vertex_polytope import VertexPolytope
@@ -322,3 +324,25 @@ class LimitedPolytopeRecursion(SetRecursion):
     def _info(self) -> dict:
         return {"max_strips": self.max_strips, "block": self.block, "n_strips_kept": len(self.yk),
                 "lp_solves": self.n_lps}
+
+
+# ------------------------------------------------------------------------------ registry entries
+
+
+@dataclass(frozen=True)
+class LimitedPolytopeOptions:
+    """What a study file may set for ``method = "polytope_limited"`` (None: the default of the class)."""
+
+    max_strips: int | None = option(None, "K, the most strips kept between blocks (default 4 p)", lo=1)
+    block: int | None = option(None, "samples per LP block (default 100 p)", lo=1)
+
+
+EXACT_METHOD = Method(
+    name="polytope_exact", summary=f"the exact recursive feasible polytope (double description, p <= {MAX_EXACT_DIM})",
+    options=NoOptions, build=lambda pb, o: fit_problem(PolytopeRecursion, pb), set_family="polytope",
+    kind="guaranteed", needs_bound=True, style=Style("#661100", "*", ":"))
+LIMITED_METHOD = Method(
+    name="polytope_limited", summary="limited-complexity polytope: K strips and a box, LP bounds after each block",
+    options=LimitedPolytopeOptions, set_family="polytope", kind="guaranteed", needs_bound=True,
+    build=lambda pb, o: fit_problem(LimitedPolytopeRecursion, pb, max_strips=o.max_strips, block=o.block),
+    style=Style("#CC6677", "p", ":"))

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import time
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
@@ -43,6 +44,7 @@ from boundid._validation import as_regression, as_vector
 from boundid.errors import InputError, NumericalError
 from boundid.estimators.estimate import Estimate, History, Statistics
 from boundid.estimators.least_squares import check_level
+from boundid.estimators.method import Method, Problem, Style, option
 from boundid.estimators.protocol import RecursiveEstimator, ellipsoid_prior
 from boundid.sets.ellipsoid import Ellipsoid, log_unit_ball_volume
 
@@ -396,3 +398,25 @@ class RLS(LinearFilter):
             sigma**2,
             {"forgetting": self.forgetting},
         )
+
+
+# ------------------------------------------------------------------------------ registry entry
+
+
+@dataclass(frozen=True)
+class RLSOptions:
+    """What a study file may set for ``method = "rls"`` (the direct-drive paper's defaults)."""
+
+    center0: float = option(0.0, "theta(0), every parameter (parameter units)", renamed_from=("theta0",))
+    shape0: float = option(1000.0, "P(0) = shape0 I", lo=0.0, strict_lo=True, renamed_from=("P0",))
+    forgetting: float = option(1.0, "forgetting factor lambda (1 = none)", lo=0.0, strict_lo=True, hi=1.0)
+
+
+def _build(problem: Problem, o: RLSOptions) -> Estimate:
+    return RLS(problem.p, center0=o.center0, shape0=o.shape0, forgetting=o.forgetting,
+               record_every=problem.record_every, names=problem.names).fit(problem.W, problem.y)
+
+
+METHOD = Method(name="rls", summary="recursive least squares with forgetting, confidence ellipsoid",
+                options=RLSOptions, build=_build, set_family="ellipsoid", kind="statistical", needs_bound=False,
+                style=Style("#CC79A7", "D", "-"))

@@ -34,11 +34,14 @@ plain numpy (the reference of the tests and benchmarks).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from boundid.errors import InputError
 from boundid.estimators import _set_kernels as K
-from boundid.estimators._set_recursion import Run, SetRecursion, clip_strip
+from boundid.estimators._set_recursion import Run, SetRecursion, clip_strip, fit_problem
+from boundid.estimators.method import Method, Style, option
 from boundid.sets.zonotope import Zonotope, reduce_generators
 
 
@@ -122,3 +125,15 @@ class ZonotopeRecursion(SetRecursion):
 
     def _info(self) -> dict:
         return {"order": self.order, "n_generators": int(self._state[0])}
+
+
+@dataclass(frozen=True)
+class ZonotopeOptions:
+    """What a study file may set for ``method = "zonotope"``."""
+
+    order: int = option(2, "at most order * p generators", lo=2)
+
+
+METHOD = Method(name="zonotope", summary="recursive zonotope of at most order * p generators (Alamo's candidates)",
+                options=ZonotopeOptions, build=lambda pb, o: fit_problem(ZonotopeRecursion, pb, order=o.order),
+                set_family="zonotope", kind="guaranteed", needs_bound=True, style=Style("#AA4499", "h", "--"))

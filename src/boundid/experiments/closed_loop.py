@@ -7,9 +7,9 @@ Each sample k (period h = 1 / fs_hz):
     V_T      = clip(u / G_T, +-torque_limit / G_T)                          current reference
     Gamma    = G_T V_T                                                      (paper eq. 36)
 and the robot's forward dynamics are integrated over [t_k, t_k+1) with Gamma held constant
-(zero-order hold) by ``substeps`` classical RK4 steps. For the H4 the whole loop is compiled
-(:func:`_h4_loop`, integration by :func:`boundid.models._h4_kernels.rk4_zoh` with a warm-started
-Newton forward model); other robots run it in Python with their ``forward_dynamics``.
+(zero-order hold) by ``substeps`` classical RK4 steps: the robot's compiled stepper when it
+offers one (:meth:`boundid.models.RobotModel.zoh_stepper`, the H4's warm-started Newton forward
+model), else RK4 on its ``forward_dynamics``.
 """
 
 from __future__ import annotations
@@ -17,12 +17,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 
 from boundid._validation import as_vector
-from boundid.errors import InputError, UnreachablePoseError
+from boundid.errors import InputError
 from boundid.experiments.measurement import quantize_angle
-from boundid.models._h4_kernels import rk4_zoh
 
 
 @dataclass(frozen=True)
@@ -96,108 +94,66 @@ def _rk4_generic(robot, q, qd, tau, dt, substeps, coulomb_width):
     return q, qd
 
 
-def zoh_step(robot, q, qd, tau, dt: float, substeps: int = 4, coulomb_width: float = 0.0, x_hint=None):
-    """Advance one state (q, qd) (n,) by dt s under constant torque tau (n,); returns (q, qd, x_hint).
+def zoh_step(robot, q, qd, tau, dt: float, substeps: int = 4, coulomb_width: float = 0.0, hint=None):
+    """Advance one state (q, qd) (n,) by dt s under constant torque tau (n,); returns (q, qd, hint).
 
-    x_hint : H4 only, the pose warm-starting the Newton forward model (returned updated).
+    The robot's compiled stepper when it offers one (:meth:`RobotModel.zoh_stepper`; ``hint`` is
+    its warm start, e.g. the H4's pose), else ``substeps`` RK4 steps of its forward dynamics.
     """
-    if hasattr(robot, "step_kernel_args"):
-        x0 = np.asarray(robot.geometry.home if x_hint is None else x_hint, float)
-        q1, qd1, x1, ok = rk4_zoh(q, qd, tau, x0, dt, substeps, *robot.step_kernel_args(), float(coulomb_width),
-                                  robot.fk_tol, robot.fk_max_iter)
-        if not ok:
-            raise UnreachablePoseError(
-                f"the simulated robot left its reachable set near q = {np.array2string(q, precision=4)} rad; "
-                "lower the trajectory amplitude or stiffen the controller."
-            )
-        return q1, qd1, x1
+    stepper = robot.zoh_stepper()
+    if stepper is not None:
+        return stepper(q, qd, tau, dt, substeps, coulomb_width, hint)
     q1, qd1 = _rk4_generic(robot, q, qd, tau, dt, substeps, coulomb_width)
     return q1, qd1, None
 
 
-@njit(cache=True)
-def _h4_loop(q, q_des, qd_des, kp, ki, kd, h, gain, v_max, step, substeps, x0, P, V, W, side, updown, dims, theta,
-             struct, g, width, tol, max_iter):
-    """The loop of :func:`simulate_closed_loop` for the H4, compiled: the same operations in the same
-    order (encoder, PID with conditional integration, clipped current reference, :func:`rk4_zoh`),
-    so the same numbers; returns (Q, QD, QM, V, SAT, k) with k the sample whose step left the
-    reachable set (-1: none; rows from k + 1 on undefined)."""
-    N, n = q_des.shape
-    Q, QD, QM, Vr = np.empty((N, n)), np.empty((N, n)), np.empty((N, n)), np.empty((N, n))
-    SAT = np.zeros((N, n), np.bool_)
-    qd, integ = np.zeros(n), np.zeros(n)
-    q_prev = np.round(q / step) * step
-    x = x0.copy()
-    for k in range(N):
-        qm = np.round(q / step) * step
-        v_est = (qm - q_prev) / h
-        q_prev = qm
-        e = q_des[k] - qm
-        u = kp * e + ki * integ + kd * (qd_des[k] - v_est)
-        v = u / gain
-        sat = np.abs(v) >= v_max
-        integ += np.where(sat, 0.0, e * h)
-        v = np.minimum(np.maximum(v, -v_max), v_max)
-        Q[k], QD[k], QM[k], Vr[k], SAT[k] = q, qd, qm, v, sat
-        q, qd, x, ok = rk4_zoh(q, qd, gain * v, x, h, substeps, P, V, W, side, updown, dims, theta, struct, g,
-                               width, tol, max_iter)
-        if not ok:
-            return Q, QD, QM, Vr, SAT, k
-    return Q, QD, QM, Vr, SAT, -1
-
-
 def simulate_closed_loop(robot, reference, duration: float, controller: JointPID, fs_hz: float = 1000.0,
-                         amplifier_gain: float = 1.5, torque_limit: float = 15.0, counts_per_rev: int = 65536,
+                         amplifier_gain=1.5, torque_limit=15.0, counts_per_rev: int = 65536,
                          substeps: int = 4, coulomb_width: float = 0.01, q0=None) -> ClosedLoopRun:
     """Track ``reference`` (an object with ``evaluate(t) -> (q, qd, qdd)``) for ``duration`` s.
 
     amplifier_gain : G_T, N m per unit of current reference; torque_limit : N m (+-15 for the H4);
+    each a scalar (every joint) or one value per joint (n,);
     counts_per_rev : encoder resolution; substeps : RK4 steps per sample (4 keeps the tanh Coulomb
     friction of width ``coulomb_width`` rad/s stable and the angle error below 1e-7 rad after 40
     samples against solve_ivp, see tests/test_h4_experiment.py); q0 : initial angles (default:
     the reference at t = 0, at rest).
     """
-    if not (duration > 0 and fs_hz > 0 and amplifier_gain > 0 and torque_limit > 0):
+    n = robot.n_joints
+    gain, limit = (np.broadcast_to(np.asarray(v, float), (n,)) if np.ndim(v) == 0 else as_vector(v, name, n)
+                   for v, name in ((amplifier_gain, "amplifier_gain"), (torque_limit, "torque_limit")))
+    if not (duration > 0 and fs_hz > 0 and np.all(gain > 0) and np.all(limit > 0)):
         raise InputError("duration, fs_hz, amplifier_gain and torque_limit must be > 0.")
     if int(substeps) != substeps or substeps < 1:
         raise InputError(f"substeps must be a positive integer, got {substeps}.")
-    n = robot.n_joints
     if controller.kp.shape != (n,):
         raise InputError(f"controller has {controller.kp.shape[0]} joints, robot {n}.")
     h = 1.0 / fs_hz
     t = np.arange(int(round(duration * fs_hz))) * h
     q_des, qd_des, _ = reference.evaluate(t)
     q = np.array(q_des[0] if q0 is None else as_vector(q0, "q0", n), float)
-    info = {"fs_hz": fs_hz, "amplifier_gain": amplifier_gain, "torque_limit": torque_limit,
-            "counts_per_rev": counts_per_rev, "substeps": int(substeps), "coulomb_width": coulomb_width}
-    if hasattr(robot, "step_kernel_args"):  # H4: the whole loop compiled, same operations as below
-        quantize_angle(q, counts_per_rev)  # checks counts_per_rev
-        Q, QD, QM, V, SAT, failed = _h4_loop(
-            q, np.ascontiguousarray(q_des, float), np.ascontiguousarray(qd_des, float), controller.kp, controller.ki,
-            controller.kd, h, float(amplifier_gain), torque_limit / amplifier_gain, 2.0 * np.pi / counts_per_rev,
-            int(substeps), np.asarray(robot.geometry.home, float), *robot.step_kernel_args(), float(coulomb_width),
-            robot.fk_tol, robot.fk_max_iter)
-        if failed >= 0:
-            raise UnreachablePoseError(
-                f"the simulated robot left its reachable set near q = {np.array2string(Q[failed], precision=4)} rad; "
-                "lower the trajectory amplitude or stiffen the controller.")
-        return ClosedLoopRun(t, Q, QD, QM, q_des, qd_des, V, amplifier_gain * V, SAT, info)
     qd = np.zeros(n)
     Q, QD, QM, V, SAT = (np.empty((len(t), n)) for _ in range(5))
     integ = np.zeros(n)
     q_prev = quantize_angle(q, counts_per_rev)
-    x_hint = None
-    v_max = torque_limit / amplifier_gain
+    hint = None
+    stepper = robot.zoh_stepper()
+    v_max = limit / gain
     for k in range(len(t)):
         qm = quantize_angle(q, counts_per_rev)
         v_est = (qm - q_prev) / h
         q_prev = qm
         e = q_des[k] - qm
         u = controller.kp * e + controller.ki * integ + controller.kd * (qd_des[k] - v_est)
-        v = u / amplifier_gain
+        v = u / gain
         sat = np.abs(v) >= v_max
         integ += np.where(sat, 0.0, e * h)  # conditional integration (anti-windup)
         v = np.clip(v, -v_max, v_max)
         Q[k], QD[k], QM[k], V[k], SAT[k] = q, qd, qm, v, sat
-        q, qd, x_hint = zoh_step(robot, q, qd, amplifier_gain * v, h, int(substeps), coulomb_width, x_hint)
-    return ClosedLoopRun(t, Q, QD, QM, q_des, qd_des, V, amplifier_gain * V, SAT.astype(bool), info)
+        if stepper is not None:
+            q, qd, hint = stepper(q, qd, gain * v, h, int(substeps), coulomb_width, hint)
+        else:
+            q, qd = _rk4_generic(robot, q, qd, gain * v, h, int(substeps), coulomb_width)
+    info = {"fs_hz": fs_hz, "amplifier_gain": amplifier_gain, "torque_limit": torque_limit,
+            "counts_per_rev": counts_per_rev, "substeps": int(substeps), "coulomb_width": coulomb_width}
+    return ClosedLoopRun(t, Q, QD, QM, q_des, qd_des, V, gain * V, SAT.astype(bool), info)

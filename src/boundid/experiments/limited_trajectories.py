@@ -36,10 +36,10 @@ from boundid.experiments.trajectories import (
 
 
 def _limits(robot):
-    limits = getattr(robot, "limits", None)
+    limits = robot.limits
     if limits is None:
-        raise InputError(f"robot {robot.name} declares no joint limits; build it from a URDF (UrdfRobot) or give it "
-                         "a `limits` attribute (boundid.models.limits.JointLimits).")
+        raise InputError(f"robot {robot.name} declares no joint limits; build it from a URDF (UrdfRobot) or set its "
+                         "`limits` (boundid.models.limits.JointLimits).")
     if not (np.all(np.isfinite(limits.velocity)) and np.all(np.isfinite(limits.acceleration))):
         raise InputError(f"robot {robot.name} needs finite velocity and acceleration limits to bound an exciting "
                          f"trajectory, got {limits.velocity} and {limits.acceleration}; pass velocity_limit= and "
@@ -150,6 +150,9 @@ class _LimitBarrier:
         if not _inside(limit_usage(self.robot, q, qd, qdd, self.margin, Y @ self.robot.theta_true)):
             raise UnreachablePoseError("trajectory outside the joint limits")
         return Y
+
+    def workspace_excursion(self, q, margin: float = 0.0) -> float:
+        return self.robot.workspace_excursion(q, margin)
 
 
 def optimize_within_limits(robot, traj: SegmentedTrajectory, margin: float = 0.1, fs_hz: float = 10.0,

@@ -5,14 +5,15 @@ torque-mode amplifier does. Each hold interval is integrated on its own with
 ``scipy.integrate.solve_ivp`` (DOP853 by default, rtol 1e-10): the right-hand side is smooth inside
 an interval, so the hold is exact and the integrator never steps across a torque jump.
 
-Speed: the right-hand side is called ~13 times per interval, so a model may provide the optional
-hook ``fast_acceleration(q, qd, u, theta, coulomb_width) -> list`` (one state, plain floats, no
-input checks; DirectDriveArm and LinearToy do). Without it the simulator uses ``mass_matrix`` and
-``bias_torque`` of the contract, with their input checks, several times slower. An open-loop run
-(:func:`simulate_open_loop`, torques known in advance) of a model with a ``compiled_acceleration``
-(numba, :data:`boundid.models.base.ACCELERATION`; DirectDriveArm has one) with DOP853 goes through
-:func:`boundid.experiments._hold_integrator.simulate_hold` instead: the same DOP853 steps as
-solve_ivp's, all intervals in one compiled call, ~100x faster (``info["engine"]`` says which ran).
+Speed: the right-hand side is called ~13 times per interval, so it is the model's ability
+``fast_acceleration(q, qd, u, theta, coulomb_width) -> list`` (one state, plain floats, no input
+checks; DirectDriveArm, LinearToy and UrdfRobot override it with closed forms; the default of
+:class:`boundid.models.RobotModel` solves ``mass_matrix`` against ``bias_torque``, several times slower).
+An open-loop run (:func:`simulate_open_loop`, torques known in advance) of a model that declares
+a ``compiled_acceleration`` (numba, :data:`boundid.models.base.ACCELERATION`; DirectDriveArm does)
+with DOP853 goes through :func:`boundid.experiments._hold_integrator.simulate_hold` instead: the
+same DOP853 steps as solve_ivp's, all intervals in one compiled call, ~100x faster
+(``info["engine"]`` says which ran).
 
 Coulomb friction is smoothed as tanh(qd / coulomb_width) (see :func:`boundid.models.coulomb`) so the
 dynamics are Lipschitz; with width 0.01 rad/s the smoothing acts only within a few hundredths of a
@@ -34,6 +35,7 @@ from boundid.errors import InputError, SolverError
 from boundid.experiments._hold_integrator import DIVERGED, simulate_hold
 from boundid.experiments.measurement import TorqueNoise, quantize_angle
 from boundid.experiments.preprocessing import backward_difference
+from boundid.models.base import RobotModel
 
 
 @dataclass
@@ -97,19 +99,11 @@ def simulate_sampled(model, torque: Callable, t_end: float, h: float, q0=None, q
     if coulomb_width < 0:
         raise InputError(f"coulomb_width must be >= 0 rad/s, got {coulomb_width}.")
 
-    fast = getattr(model, "fast_acceleration", None)
-    if callable(fast):
-        theta_list = theta.tolist()
+    fast, theta_list = model.fast_acceleration, theta.tolist()
 
-        def rhs(_t, y, u):
-            s = y.tolist()
-            return np.array(s[n:] + fast(s[:n], s[n:], u, theta_list, coulomb_width))
-    else:
-        def rhs(_t, y, u):
-            qq, vv = y[None, :n], y[None, n:]
-            acc = np.linalg.solve(model.mass_matrix(qq, theta)[0],
-                                  np.asarray(u) - model.bias_torque(qq, vv, theta, coulomb_width)[0])
-            return np.concatenate([y[n:], acc])
+    def rhs(_t, y, u):
+        s = y.tolist()
+        return np.array(s[n:] + fast(s[:n], s[n:], u, theta_list, coulomb_width))
 
     t = np.arange(K + 1) * h
     Y = np.empty((K + 1, 2 * n))
@@ -131,7 +125,8 @@ def simulate_sampled(model, torque: Callable, t_end: float, h: float, q0=None, q
     q, qd = Y[:, :n], Y[:, n:]
     qdd = model.forward_dynamics(q, qd, U, theta, coulomb_width)
     info = {"model": model.name, "theta": theta.copy(), "coulomb_width": coulomb_width, "rtol": rtol,
-            "atol": atol, "method": method, "nfev": nfev, "hold": "zero-order", "fast_path": callable(fast),
+            "atol": atol, "method": method, "nfev": nfev, "hold": "zero-order",
+            "fast_path": type(model).fast_acceleration is not RobotModel.fast_acceleration,
             "engine": "scipy solve_ivp"}
     return Trajectory(t=t, q=q, qd=qd, qdd=qdd, tau=U, h=float(h), info=info)
 
@@ -151,7 +146,7 @@ def simulate_open_loop(model, torque, t_end: float, h: float, q0=None, qd0=None,
     if U.shape != (K + 1, model.n_joints) or not np.all(np.isfinite(U)):
         raise InputError(f"the torque samples must be finite with shape ({K + 1}, {model.n_joints}) "
                          f"(one row per instant 0, h, ..., t_end), got {U.shape}.")
-    compiled = getattr(model, "compiled_acceleration", None)
+    compiled = model.compiled_acceleration
     if compiled is not None and method == "DOP853":
         traj = _simulate_compiled(model, compiled, U, t, h, q0, qd0, theta, coulomb_width, rtol, atol)
     else:

@@ -134,38 +134,22 @@ class SegmentedTrajectory:
 
 # -- workspace --------------------------------------------------------------------------------
 def workspace_violation(robot, q: np.ndarray, margin: float = 0.0) -> float:
-    """How far joint positions q (N, n) take the robot out of its workspace (0 = inside).
-
-    For robots with a pose box (H4: ``geometry.workspace_low/high``, forward model ``_fk``) the sum
-    of squared excursions of the poses outside the box shrunk by ``margin`` (a fraction of its
-    width), plus 1 per sample where the forward model fails. Robots without a workspace give 0.
-    """
-    geo = getattr(robot, "geometry", None)
-    if geo is None or not hasattr(geo, "workspace_low"):
-        return 0.0
-    lo, hi = np.asarray(geo.workspace_low), np.asarray(geo.workspace_high)
-    pad = margin * (hi - lo)
-    x0 = np.broadcast_to(np.asarray(geo.home, float), q.shape).copy()
-    x, ok = robot._fk(np.asarray(q, float), x0, 1e-10, 30)
-    x = x[ok]
-    out = np.maximum(x - (hi - pad), 0.0) + np.maximum((lo + pad) - x, 0.0)
-    scale = hi - lo
-    return float(np.sum((out / scale) ** 2) + np.sum(~ok))
+    """How far joint positions q (N, n) take the robot out of its workspace (0 = inside): the
+    robot's own measure (:meth:`boundid.models.RobotModel.workspace_excursion`, 0 for a robot
+    without a workspace; the H4: squared excursions of the poses out of its box)."""
+    return robot.workspace_excursion(q, margin)
 
 
 def check_in_workspace(robot, traj: SegmentedTrajectory, fs_hz: float = 100.0):
     """Raise UnreachablePoseError unless the whole trajectory (sampled at fs_hz) is in the workspace."""
     t = np.arange(0.0, traj.duration, 1.0 / fs_hz)
-    q = traj.evaluate(t)[0]
-    if hasattr(robot, "pose"):
-        x = robot.pose(q)  # raises on non-convergence or singularity
-        inside = robot.in_workspace(x)
-        if not inside.all():
-            k = int(np.argmin(inside))
-            raise UnreachablePoseError(
-                f"trajectory leaves the workspace at t = {t[k]:.3f} s (pose {np.array2string(x[k], precision=3)}); "
-                "scale it down with fit_to_workspace."
-            )
+    out = robot.outside_workspace(traj.evaluate(t)[0])  # raises on non-convergence or singularity
+    if out is not None:
+        k, x = out
+        raise UnreachablePoseError(
+            f"trajectory leaves the workspace at t = {t[k]:.3f} s (pose {np.array2string(x, precision=3)}); "
+            "scale it down with fit_to_workspace."
+        )
 
 
 def fit_to_workspace(robot, traj: SegmentedTrajectory, margin: float = 0.1, max_scale: float = 1.0,
@@ -201,16 +185,13 @@ def exciting_trajectory(robot, rng: np.random.Generator, duration: float = 20.0,
 
     duration : s, total; slow_fraction : share of the slow segment (one period);
     fast_period : s, period of the fast segment, repeated to fill the rest; q0 : rest position
-    (default IK of the home pose for the H4, else zeros); random coefficients from ``rng``, made
-    rest-to-rest and scaled to stay inside the workspace shrunk by ``margin``.
+    (default: the robot's ``rest_position()``, the home pose's angles for the H4); random
+    coefficients from ``rng``, made rest-to-rest and scaled to stay inside the workspace shrunk by ``margin``.
     """
     if not (duration > 0 and 0 < slow_fraction < 1 and fast_period > 0):
         raise InputError("need duration > 0 s, 0 < slow_fraction < 1 and fast_period > 0 s.")
     n = robot.n_joints
-    if q0 is None:
-        geo = getattr(robot, "geometry", None)
-        q0 = robot.inverse_kinematics(np.asarray(geo.home)) if geo is not None else np.zeros(n)
-    q0 = as_vector(q0, "q0", n)
+    q0 = as_vector(robot.rest_position() if q0 is None else q0, "q0", n)
     slow_T = slow_fraction * duration
     reps = max(1, int(round((duration - slow_T) / fast_period)))
     segs = []

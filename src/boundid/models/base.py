@@ -1,7 +1,10 @@
 """The robot-model contract every robot implements (direct-drive arm, H4, linear toy).
 
-Shapes: ``n`` joints, ``p`` parameters, ``N`` samples. State arrays are (N, n); a single state
-(n,) is accepted and treated as N = 1. Regressors are linear in theta:
+Shapes: ``n`` joints, ``p`` parameters, ``N`` samples. State arrays are (N, n); the rule for a
+single state (n,) is the same for every robot: the result of that state without the leading
+sample axis (regressor (n, p), mass matrix (n, n), torque (n,), energy regressor (p,)), as a
+batch (N, n) gives (N, n, p), (N, n, n), (N, n), (N, p). A robot writes its methods for a batch
+and decorates them with :func:`per_state`. Regressors are linear in theta:
 
     tau      = Y(q, qd, qdd) theta                      (inverse dynamics, N x n x p)
     Y theta  = d/dt[Ya(q, qd) theta] + Yb(q, qd) theta  (momentum form, no qdd needed)
@@ -15,13 +18,16 @@ Coulomb friction is ``sign(qd)`` in the identification model; simulation may smo
 
 from __future__ import annotations
 
+import functools
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 
 import numpy as np
 from numba import types
 
 from boundid._validation import as_float_array
 from boundid.errors import InputError
+from boundid.models.limits import JointLimits
 
 #: numba type of a model's optional compiled acceleration ``compiled_acceleration(y, u, theta,
 #: coulomb_width, out)``: y (2n,) = [q, qd], u (n,) N m, theta (p,); writes qdd (n,) into ``out``.
@@ -35,6 +41,23 @@ def coulomb(qd: np.ndarray, width: float = 0.0) -> np.ndarray:
     if width < 0:
         raise InputError(f"coulomb_width must be >= 0 rad/s, got {width}.")
     return np.sign(qd) if width == 0 else np.tanh(qd / width)
+
+
+def per_state(method):
+    """A contract method written for a batch (N, n) -> (N, ...) that, given a single state (n,) as
+    its first argument, returns the result of that state without the leading axis."""
+
+    @functools.wraps(method)
+    def wrapper(self, first, *args, **kwargs):
+        out = method(self, first, *args, **kwargs)
+        return out[0] if np.ndim(first) == 1 else out
+
+    return wrapper
+
+
+@dataclass(frozen=True)
+class NoRobotOptions:
+    """A robot without options."""
 
 
 class RobotModel(ABC):
@@ -53,9 +76,58 @@ class RobotModel(ABC):
     #: a-priori (design) values, (p,), NaN where unknown
     theta_prior: np.ndarray
 
+    #: per-joint limits: position range, velocity, acceleration and effort (the torque limit of
+    #: each joint, N m), or None when the robot declares none (UrdfRobot reads them from its URDF)
+    limits: JointLimits | None = None
+    #: the typed options a study's robot.options may set (a frozen dataclass; see :meth:`from_options`)
+    Options: type = NoRobotOptions
+    #: qdd for one state as a numba function of type :data:`ACCELERATION`, or None: the open-loop
+    #: simulator then runs every hold interval in one compiled call (DirectDriveArm declares one)
+    compiled_acceleration = None
+
     @property
     def p(self) -> int:
         return len(self.param_names)
+
+    @classmethod
+    def from_options(cls, options) -> RobotModel:
+        """The robot built from an instance of :attr:`Options` (default: its fields as keywords)."""
+        return cls(**{f: getattr(options, f) for f in options.__dataclass_fields__})
+
+    # -- abilities (defaults; a robot overrides what it offers) ----------------------------
+    @property
+    def experiments(self) -> tuple[str, ...]:
+        """The simulated experiments this robot supports: "open_loop" (the direct-drive paper's
+        torques (31)-(32), two joints) and/or "closed_loop" (the H4 paper's PI experiment)."""
+        return ("open_loop",) if self.n_joints == 2 else ()
+
+    def fast_acceleration(self, q, qd, u, theta, coulomb_width: float) -> list[float]:
+        """qdd for ONE state in plain floats (the simulator's inner loop): q, qd, u (n,), theta (p,)
+        sequences. Default: M(q)^-1 (u - bias); robots override it with a faster closed form."""
+        qq, vv, th = np.asarray(q, float)[None], np.asarray(qd, float)[None], np.asarray(theta, float)
+        acc = np.linalg.solve(self.mass_matrix(qq, th)[0],
+                              np.asarray(u, float) - self.bias_torque(qq, vv, th, coulomb_width)[0])
+        return acc.tolist()
+
+    def rest_position(self) -> np.ndarray:
+        """Joint angles (n,) an exciting trajectory starts and ends at (default: zeros)."""
+        return np.zeros(self.n_joints)
+
+    def zoh_stepper(self):
+        """A compiled stepper ``step(q, qd, tau, dt, substeps, coulomb_width, hint) -> (q, qd, hint)``
+        advancing one state under a held torque, or None: the caller integrates
+        :meth:`forward_dynamics` (``hint`` is the robot's own warm start, None at first)."""
+        return None
+
+    def workspace_excursion(self, q, margin: float = 0.0) -> float:
+        """How far joint positions q (N, n) take the robot out of its workspace (0 = inside; a
+        robot without a workspace gives 0)."""
+        return 0.0
+
+    def outside_workspace(self, q) -> tuple[int, np.ndarray] | None:
+        """(first sample index, its pose) where q (N, n) leaves the workspace, or None (inside, or
+        no workspace)."""
+        return None
 
     # -- input handling ---------------------------------------------------------------
     def _states(self, *arrays, names=("q", "qd", "qdd")) -> tuple[list[np.ndarray], bool]:
@@ -117,14 +189,15 @@ class RobotModel(ABC):
         return t
 
     def inverse_dynamics(self, q, qd, qdd, theta=None) -> np.ndarray:
-        """tau = Y(q, qd, qdd) theta, shape (N, n)."""
+        """tau = Y(q, qd, qdd) theta, shape (N, n) ((n,) for one state)."""
         return self.regressor(q, qd, qdd) @ self._theta(theta)
 
     def forward_dynamics(self, q, qd, tau, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
-        """qdd = M(q)^-1 (tau - bias), shape (N, n)."""
-        (q, qd, tau), _ = self._states(q, qd, tau, names=("q", "qd", "tau"))
-        rhs = tau - self.bias_torque(q, qd, theta, coulomb_width)
-        return np.linalg.solve(self.mass_matrix(q, theta), rhs[..., None])[..., 0]
+        """qdd = M(q)^-1 (tau - bias), shape (N, n) ((n,) for one state)."""
+        (q2, qd2, tau2), single = self._states(q, qd, tau, names=("q", "qd", "tau"))
+        rhs = tau2 - self.bias_torque(q2, qd2, theta, coulomb_width)
+        qdd = np.linalg.solve(self.mass_matrix(q2, theta), rhs[..., None])[..., 0]
+        return qdd[0] if single else qdd
 
     def energy(self, q, qd, theta=None) -> np.ndarray:
         """H = K + U (N,)."""

@@ -22,19 +22,38 @@ hanging at rest). The parameter vector (paper section 5, docs/models.md) is
 from __future__ import annotations
 
 import math
+from dataclasses import asdict, dataclass
 
 import numpy as np
 from numba import njit
 
 from boundid.errors import InputError
-from boundid.models.base import ACCELERATION, RobotModel, coulomb
+from boundid.models.base import ACCELERATION, RobotModel, coulomb, per_state
 from boundid.sets.constraints import Cone, LinearRows, PhysicalConstraints, constraints, linear_rows, nonnegative
 
+
+@dataclass(frozen=True)
+class DirectDriveOptions:
+    """robot.options of the direct-drive arm: its physical values (docs/models.md), SI units:
+    masses kg, lengths m, inertias kg m^2, g m/s^2, viscous b N m s/rad, Coulomb fc N m."""
+
+    m1: float = 23.902
+    m2: float = 3.880
+    l1: float = 0.45
+    l2: float = 0.45
+    lc1: float = 0.091
+    lc2: float = 0.048
+    I1: float = 1.266
+    I2: float = 0.093
+    g: float = 9.81
+    b1: float = 2.288
+    b2: float = 0.175
+    fc1: float = 7.17
+    fc2: float = 1.734
+
+
 #: Physical values of the CICESE direct-drive arm (docs/models.md), SI units.
-PHYSICAL = {
-    "m1": 23.902, "m2": 3.880, "l1": 0.45, "l2": 0.45, "lc1": 0.091, "lc2": 0.048,
-    "I1": 1.266, "I2": 0.093, "g": 9.81, "b1": 2.288, "b2": 0.175, "fc1": 7.17, "fc2": 1.734,
-}
+PHYSICAL = asdict(DirectDriveOptions())
 
 
 @njit(ACCELERATION, cache=True)
@@ -69,6 +88,7 @@ class DirectDriveArm(RobotModel):
 
     name = "direct_drive"
     n_joints = 2
+    Options = DirectDriveOptions
     param_names = ("th1", "th2", "th3", "th4", "th5", "b1", "b2", "fc1", "fc2")
     param_units = ("kg m^2", "kg m^2", "kg m^2", "N m", "N m", "N m s/rad", "N m s/rad", "N m", "N m")
 
@@ -91,6 +111,7 @@ class DirectDriveArm(RobotModel):
         self.theta_prior = self.theta_true.copy()
 
     # -- regressors (N, n, p) ------------------------------------------------------------
+    @per_state
     def regressor(self, q, qd, qdd) -> np.ndarray:
         (q, qd, qdd), _ = self._states(q, qd, qdd)
         s1, c2, s2, s12 = np.sin(q[:, 0]), np.cos(q[:, 1]), np.sin(q[:, 1]), np.sin(q[:, 0] + q[:, 1])
@@ -110,6 +131,7 @@ class DirectDriveArm(RobotModel):
         Y[:, 1, 8] = np.sign(v2)
         return Y
 
+    @per_state
     def momentum_regressor(self, q, qd) -> np.ndarray:
         (q, qd), _ = self._states(q, qd)
         c2, v1, v2 = np.cos(q[:, 1]), qd[:, 0], qd[:, 1]
@@ -121,6 +143,7 @@ class DirectDriveArm(RobotModel):
         Ya[:, 1, 2] = v1 + v2
         return Ya
 
+    @per_state
     def remainder_regressor(self, q, qd) -> np.ndarray:
         """Yb = -dK/dq + dU/dq + f: row 2 carries th2 sin q2 qd1 (qd1 + qd2) (paper's filtered regressor)."""
         (q, qd), _ = self._states(q, qd)
@@ -137,6 +160,7 @@ class DirectDriveArm(RobotModel):
         Yb[:, 1, 8] = np.sign(v2)
         return Yb
 
+    @per_state
     def energy_regressor(self, q, qd) -> np.ndarray:
         (q, qd), _ = self._states(q, qd)
         c1, c2, c12 = np.cos(q[:, 0]), np.cos(q[:, 1]), np.cos(q[:, 0] + q[:, 1])
@@ -149,6 +173,7 @@ class DirectDriveArm(RobotModel):
         phi[:, 4] = 1.0 - c12
         return phi
 
+    @per_state
     def friction_power_regressor(self, qd) -> np.ndarray:
         (qd,), _ = self._states(qd, names=("qd",))
         phi = np.zeros((qd.shape[0], 9))
@@ -157,6 +182,7 @@ class DirectDriveArm(RobotModel):
         return phi
 
     # -- matrices --------------------------------------------------------------------------
+    @per_state
     def mass_matrix(self, q, theta=None) -> np.ndarray:
         (q,), _ = self._states(q, names=("q",))
         th = self._theta(theta)
@@ -167,6 +193,7 @@ class DirectDriveArm(RobotModel):
         M[:, 1, 1] = th[2]
         return M
 
+    @per_state
     def bias_torque(self, q, qd, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
         """C(q, qd) qd + g(q) + f(qd), Coulomb as tanh(qd / coulomb_width) (sign if width 0)."""
         (q, qd), _ = self._states(q, qd)

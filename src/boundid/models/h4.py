@@ -145,6 +145,13 @@ class H4Robot(H4Kinematics, RobotModel):
     #: neglected effects simulated on top of eq. (14): none for the identification model
     structural: H4Structural = NO_STRUCTURAL_ERROR
 
+    #: robot.options: the geometry (m, rad)
+    Options = H4Geometry
+
+    @classmethod
+    def from_options(cls, options: H4Geometry) -> H4Robot:
+        return cls(options)
+
     def __init__(self, geometry: H4Geometry | None = None, g: float = 9.81, theta_true=None,
                  fk_tol: float = 1e-12, fk_max_iter: int = 30):
         super().__init__(geometry)
@@ -303,6 +310,57 @@ class H4Robot(H4Kinematics, RobotModel):
     def step_kernel_args(self, theta=None) -> tuple:
         """Arguments after (q, qd, tau, x_hint, dt, substeps) of ``_h4_kernels.rk4_zoh`` for this robot."""
         return (*self._geo, self._kernel_theta(theta), self.structural.kernel_array(self.geometry.L), self.g)
+
+    # -- abilities (boundid.models.base.RobotModel) -----------------------------------------
+    @property
+    def experiments(self) -> tuple[str, ...]:
+        """The H4 paper's closed-loop PI experiment (its parallel structure has no open-loop one here)."""
+        return ("closed_loop",)
+
+    def rest_position(self) -> np.ndarray:
+        """The motor angles of the home pose (inverse kinematics, eq. 9)."""
+        return self.inverse_kinematics(np.asarray(self.geometry.home))
+
+    def zoh_stepper(self):
+        """The compiled RK4 stepper of ``_h4_kernels.rk4_zoh`` (warm-started Newton forward model;
+        ``hint`` is the pose, the home pose at first); raises UnreachablePoseError when the robot
+        leaves its reachable set."""
+        args = self.step_kernel_args()
+
+        def step(q, qd, tau, dt, substeps, coulomb_width, hint):
+            x0 = np.asarray(self.geometry.home if hint is None else hint, float)
+            q1, qd1, x1, ok = kern.rk4_zoh(q, qd, tau, x0, dt, substeps, *args, float(coulomb_width), self.fk_tol,
+                                           self.fk_max_iter)
+            if not ok:
+                raise UnreachablePoseError(
+                    f"the simulated robot left its reachable set near q = {np.array2string(q, precision=4)} rad; "
+                    "lower the trajectory amplitude or stiffen the controller.")
+            return q1, qd1, x1
+
+        return step
+
+    def workspace_excursion(self, q, margin: float = 0.0) -> float:
+        """Sum of squared excursions (relative to the box width) of the poses of q (N, 4) outside the
+        workspace box shrunk by ``margin`` (a fraction of its width), plus 1 per sample where the
+        forward model fails (Newton to 1e-10 rad, 30 iterations)."""
+        geo = self.geometry
+        lo, hi = np.asarray(geo.workspace_low), np.asarray(geo.workspace_high)
+        pad = margin * (hi - lo)
+        q = np.asarray(q, float)
+        x, ok = self._fk(q, np.broadcast_to(np.asarray(geo.home, float), q.shape).copy(), 1e-10, 30)
+        x = x[ok]
+        out = np.maximum(x - (hi - pad), 0.0) + np.maximum((lo + pad) - x, 0.0)
+        return float(np.sum((out / (hi - lo)) ** 2) + np.sum(~ok))
+
+    def outside_workspace(self, q) -> tuple[int, np.ndarray] | None:
+        """(first index, pose) of q (N, 4) outside the workspace box; raises UnreachablePoseError
+        where the forward model does not converge or meets a singularity."""
+        x = self.pose(q)
+        inside = self.in_workspace(x)
+        if inside.all():
+            return None
+        k = int(np.argmin(inside))
+        return k, x[k]
 
     def _kernel_theta(self, theta) -> np.ndarray:
         """The theta the compiled kernels take: eq. (18)'s own for the identification model."""

@@ -11,11 +11,23 @@ friction, so simulations of it are smooth and ``coulomb_width`` is ignored.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from boundid.errors import InputError
-from boundid.models.base import RobotModel
+from boundid.models.base import RobotModel, per_state
+
+
+@dataclass(frozen=True)
+class LinearToyOptions:
+    """robot.options of the linear toy: m [kg], l [m], I_c [kg m^2], b [N m s/rad], g [m/s^2]."""
+
+    m: float = 1.0
+    l: float = 0.5  # noqa: E741 (the paper's symbol)
+    I_c: float = 0.01
+    b: float = 0.1
+    g: float = 9.81
 
 
 class LinearToy(RobotModel):
@@ -28,6 +40,7 @@ class LinearToy(RobotModel):
 
     name = "toy_pendulum"
     n_joints = 1
+    Options = LinearToyOptions
     param_names = ("J", "mgl", "b")
     param_units = ("kg m^2", "N m", "N m s/rad")
 
@@ -38,32 +51,39 @@ class LinearToy(RobotModel):
         self.theta_true = np.array([m * l * l + I_c, m * g * l, b], float)
         self.theta_prior = self.theta_true.copy()
 
+    @per_state
     def regressor(self, q, qd, qdd) -> np.ndarray:
         (q, qd, qdd), _ = self._states(q, qd, qdd)
         return np.stack([qdd, np.sin(q), qd], axis=-1)
 
+    @per_state
     def momentum_regressor(self, q, qd) -> np.ndarray:
         (q, qd), _ = self._states(q, qd)
         z = np.zeros_like(qd)
         return np.stack([qd, z, z], axis=-1)
 
+    @per_state
     def remainder_regressor(self, q, qd) -> np.ndarray:
         (q, qd), _ = self._states(q, qd)
         return np.stack([np.zeros_like(qd), np.sin(q), qd], axis=-1)
 
+    @per_state
     def energy_regressor(self, q, qd) -> np.ndarray:
         (q, qd), _ = self._states(q, qd)
         return np.column_stack([0.5 * qd[:, 0] ** 2, 1.0 - np.cos(q[:, 0]), np.zeros(q.shape[0])])
 
+    @per_state
     def friction_power_regressor(self, qd) -> np.ndarray:
         (qd,), _ = self._states(qd, names=("qd",))
         z = np.zeros(qd.shape[0])
         return np.column_stack([z, z, qd[:, 0] ** 2])
 
+    @per_state
     def mass_matrix(self, q, theta=None) -> np.ndarray:
         (q,), _ = self._states(q, names=("q",))
         return np.full((q.shape[0], 1, 1), self._theta(theta)[0])
 
+    @per_state
     def bias_torque(self, q, qd, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
         (q, qd), _ = self._states(q, qd)
         th = self._theta(theta)

@@ -58,27 +58,11 @@ import pinocchio as pin
 
 from boundid._validation import as_float_array, as_vector
 from boundid.errors import InputError
-from boundid.models.base import RobotModel, coulomb
+from boundid.models.base import RobotModel, coulomb, per_state
 from boundid.models.limits import JointLimits
+from boundid.models.urdf_options import EXAMPLE_ROBOTS, UrdfOptions
 from boundid.sets.constraints import PhysicalConstraints, constraints, linear_rows
 from boundid.sets.constraints import pseudo_inertia as pseudo_inertia_lmi
-
-#: Fixed-base arms of ``example-robot-data``: name -> (URDF path under its ``robots`` folder,
-#: default joint selection, None for every movable joint).
-EXAMPLE_ROBOTS: dict[str, tuple[str, tuple[str, ...] | None]] = {
-    "ur3": ("ur_description/urdf/ur3_robot.urdf", None),
-    "ur5": ("ur_description/urdf/ur5_robot.urdf", None),
-    "ur10": ("ur_description/urdf/ur10_robot.urdf", None),
-    "panda": ("panda_description/urdf/panda.urdf", tuple(f"panda_joint{i}" for i in range(1, 8))),
-    "kinova": ("kinova_description/robots/kinova.urdf", None),
-    "xarm7": ("xarm_description/urdf/xarm7.urdf", None),
-    "z1": ("z1_description/urdf/z1.urdf", tuple(f"joint{i}" for i in range(1, 7))),
-    "so100": ("so_arm_description/urdf/so100.urdf",
-              ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll")),
-    "so101": ("so_arm_description/urdf/so101.urdf",
-              ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll")),
-    "double_pendulum": ("double_pendulum_description/urdf/double_pendulum.urdf", None),
-}
 
 #: Names of the 10 inertial parameters of a body, pinocchio's order (suffixed with the joint number).
 INERTIAL_NAMES = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
@@ -242,6 +226,13 @@ class UrdfRobot(RobotModel):
     who knows the CAD model). ``limits`` holds the :class:`JointLimits` read from the URDF: a
     limit the file does not give is inf (position limits 0, 0 are urdfdom's default for "none").
     """
+
+    #: robot.options: the URDF (an example-robot-data name or a .urdf path)
+    Options = UrdfOptions
+
+    @classmethod
+    def from_options(cls, options: UrdfOptions) -> UrdfRobot:
+        return cls(options.source)
 
     def __init__(self, source: str | Path, joints: Sequence[str] | None = None, *, viscous=None, coulomb=None,
                  with_armature: bool = False, armature=None, with_offset: bool = False, offset=None,
@@ -437,6 +428,7 @@ class UrdfRobot(RobotModel):
         return np.zeros((N, self.n_joints, self.p))
 
     # -- regressors ----------------------------------------------------------------------
+    @per_state
     def regressor(self, q, qd, qdd) -> np.ndarray:
         """Y (N, n, p): tau = Y theta, inertial part by ``pin.computeJointTorqueRegressor``."""
         (q, qd, qdd), _ = self._states(q, qd, qdd)
@@ -469,6 +461,7 @@ class UrdfRobot(RobotModel):
         carries = np.triu(np.ones((n, n)))[None, :, :, None]    # body i is carried by joint j iff i >= j
         return (np.einsum("Nja,Niak->Njik", vxS, G) * carries).reshape(N, n, 10 * n)
 
+    @per_state
     def momentum_regressor(self, q, qd) -> np.ndarray:
         """Ya (N, n, p): M(q) qd = Ya theta, the gravity-free torque regressor at (q, 0, qd) (plus Ia qd)."""
         (q, qd), _ = self._states(q, qd)
@@ -479,6 +472,7 @@ class UrdfRobot(RobotModel):
             Y[k, :, :10 * n] = pin.computeJointTorqueRegressor(self._still, self._still_data, Q[k], zero, qd[k])
         return self._joint_columns(Y, {"Ia": qd})
 
+    @per_state
     def remainder_regressor(self, q, qd) -> np.ndarray:
         """Yb (N, n, p) = g(q) - dK/dq + friction (+ offset), so that Y theta = d/dt(Ya theta) + Yb theta."""
         (q, qd), _ = self._states(q, qd)
@@ -490,6 +484,7 @@ class UrdfRobot(RobotModel):
             Y[k, :, :10 * n] += pin.computeJointTorqueRegressor(self._model, self._data, Q[k], zero, zero)
         return self._joint_columns(Y, {"fv": qd, "fc": np.sign(qd), "off": np.ones_like(qd)})
 
+    @per_state
     def energy_regressor(self, q, qd) -> np.ndarray:
         """phi_H (N, p): H = K + U = phi_H theta (pinocchio's kinetic and potential energy regressors)."""
         (q, qd), _ = self._states(q, qd)
@@ -502,6 +497,7 @@ class UrdfRobot(RobotModel):
             phi[:, self._slices["Ia"]] = 0.5 * qd ** 2
         return phi
 
+    @per_state
     def friction_power_regressor(self, qd) -> np.ndarray:
         """phi_f (N, p): qd^T (fv qd + fc sign qd + off) = phi_f theta."""
         (qd,), _ = self._states(qd, names=("qd",))
@@ -536,6 +532,7 @@ class UrdfRobot(RobotModel):
             tau = tau + th[self._slices["off"]]
         return tau
 
+    @per_state
     def mass_matrix(self, q, theta=None) -> np.ndarray:
         """M(q) (N, n, n) by CRBA (armature on the diagonal)."""
         (q,), _ = self._states(q, names=("q",))
@@ -547,6 +544,7 @@ class UrdfRobot(RobotModel):
             M[k] = U + np.triu(U, 1).T
         return M
 
+    @per_state
     def bias_torque(self, q, qd, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
         """C(q, qd) qd + g(q) (RNEA at zero acceleration) + friction (+ offset), (N, n)."""
         (q, qd), _ = self._states(q, qd)
@@ -556,6 +554,7 @@ class UrdfRobot(RobotModel):
         b = np.array([pin.nonLinearEffects(model, data, Q[k], qd[k]).copy() for k in range(q.shape[0])])
         return b.reshape(q.shape) + self._joint_torque(qd, th, coulomb_width)
 
+    @per_state
     def forward_dynamics(self, q, qd, tau, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
         """qdd (N, n) by ABA on tau minus friction (and offset)."""
         (q, qd, tau), _ = self._states(q, qd, tau, names=("q", "qd", "tau"))

@@ -14,7 +14,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from boundid.errors import InputError
-from boundid.report.figures import DPI, color_for
+from boundid.report.figures import DPI, color_for, method_styles
 from boundid.report.html import Page
 from boundid.report.output import replace_folder
 from boundid.studies.campaign import DATA_DIR, CampaignResult, parameter_errors, summarize
@@ -57,7 +57,12 @@ def _grouped_bars(summary: pd.DataFrame, column: str, ylabel: str, *, log: bool 
 
 
 def campaign_page(result: CampaignResult) -> Page:
-    """Build the summary page of ``result`` (nothing written)."""
+    """Build the summary page of ``result`` (nothing written); each estimator in its method's style."""
+    with method_styles(result.config.styles()):
+        return _page(result)
+
+
+def _page(result: CampaignResult) -> Page:
     table = result.table
     if table.empty:
         raise InputError(f"campaign {result.out} holds no completed replicate: nothing to report.")

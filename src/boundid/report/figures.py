@@ -3,15 +3,17 @@
 Every function takes numpy arrays, dicts of arrays or 2-D :class:`~boundid.sets.ConvexSet` objects and
 returns a :class:`matplotlib.figure.Figure`. Figures are created with ``Figure()`` directly (not
 ``pyplot``), so they render with the Agg canvas whatever the interactive backend is, and nothing
-accumulates in pyplot's figure registry. Colours are fixed per estimator (:func:`color_for`) so
-the same method has the same colour in every figure of every report.
+accumulates in pyplot's figure registry. Colours and markers come from the method registry
+(:func:`style_for`: each estimator's ``Method.style_for(options)``, set by :func:`method_styles`),
+so a method and variant has the same style in every figure of every report.
 """
 
 from __future__ import annotations
 
-import re
 import zlib
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -19,58 +21,55 @@ from matplotlib.patches import Polygon, Rectangle
 from matplotlib.ticker import FormatStrFormatter, NullFormatter
 
 from boundid.errors import InputError
+from boundid.estimators.method import Style
 from boundid.sets.convex import ConvexSet
 
-# Okabe-Ito colour-blind safe palette, plus a few darker tones; one fixed colour per estimator.
+# The references drawn beside the estimators (not methods of the registry): fixed colours.
 PALETTE: dict[str, str] = {
-    "OBE-factorized": "#0072B2",
-    "OBE-standard": "#56B4E9",
-    "WLS": "#D55E00",
-    "OLS": "#E69F00",
-    "RLS": "#CC79A7",
-    "Kalman": "#882255",
     "LP exact": "#000000",
     "SDP outer": "#009E73",
-    "John": "#999933",
-    "inner": "#44AA99",
+    "SDP john": "#999933",
+    "SDP inner": "#44AA99",
     "truth": "#000000",
     "measured": "#4D4D4D",
 }
-
-# (regular expression on the lower-cased label, palette key), first match wins: "OBE-factorized
-# (volume)" -> OBE-factorized, "OBE (trace)" -> OBE-standard, "WLS 95 %" -> WLS, ...
-_RULES: tuple[tuple[str, str], ...] = (
-    (r"factori", "OBE-factorized"),
-    (r"\bobe\b|fogel|huang", "OBE-standard"),
-    (r"john|inscribed|max-?vol", "John"),
-    (r"\binner\b", "inner"),
-    (r"\bsdp\b|outer|l[oö]wner|min-?vol", "SDP outer"),
-    (r"\blp\b|exact|polytope", "LP exact"),
-    (r"\bwls\b|weighted", "WLS"),
-    (r"\bols\b|least.squares", "OLS"),
-    (r"\brls\b|recursive", "RLS"),
-    (r"kalman", "Kalman"),
-    (r"truth|true", "truth"),
-    (r"measured", "measured"),
-)
+# a label that is neither an estimator of the study in effect nor a reference (a lesson's own
+# series): a fixed colour-blind-safe colour chosen by a CRC32 hash of the label
 _FALLBACK = ("#332288", "#117733", "#AA4499", "#661100", "#6699CC", "#888888", "#DDCC77", "#CC6677")
+# {estimator label: Style} of the study whose figures are being drawn (method_styles)
+_STYLES: ContextVar[Mapping[str, Style] | None] = ContextVar("method_styles", default=None)
 
 DPI = 110  # PNG resolution of embedded figures: legible and small (pages stay well under 3 MB)
 _AX_W, _AX_H = 3.3, 2.2  # inches per subplot
 
 
-def color_for(label: str) -> str:
-    """The fixed colour of an estimator label (stable across figures and runs).
+@contextmanager
+def method_styles(styles: Mapping[str, Style]) -> Iterator[None]:
+    """Draw the figures made inside the block with ``styles`` = {estimator label: Style}, each the
+    registered method's :meth:`~boundid.estimators.method.Method.style_for` its options
+    (:meth:`boundid.studies.config.StudyConfig.styles`)."""
+    token = _STYLES.set(dict(styles))
+    try:
+        yield
+    finally:
+        _STYLES.reset(token)
 
-    Known methods are recognised by keyword (``"OBE-factorized (volume)"`` -> the OBE-factorized
-    colour); any other label gets a colour chosen by a CRC32 hash of the label, so it is still the
-    same in every figure.
-    """
-    low = label.lower()
-    for pattern, key in _RULES:
-        if re.search(pattern, low):
-            return PALETTE[key]
-    return _FALLBACK[zlib.crc32(label.encode()) % len(_FALLBACK)]
+
+def style_for(label: str) -> Style:
+    """The style of a figure label: that of the estimator label it names (exactly, or followed by
+    " /" or " (": "RLS / filtered_dynamic", "OBE-standard (unverified)"; the longest such label
+    wins) from :func:`method_styles`; a reference of :data:`PALETTE` (named the same way) its colour; any other label a
+    colour by the CRC32 hash of the label, the same in every figure."""
+    for styles in (_STYLES.get() or {}, {k: Style(c, "o") for k, c in PALETTE.items()}):
+        named = [k for k in styles if label == k or label.startswith((k + " /", k + " ("))]
+        if named:
+            return styles[max(named, key=len)]
+    return Style(_FALLBACK[zlib.crc32(label.encode()) % len(_FALLBACK)], "o")
+
+
+def color_for(label: str) -> str:
+    """The colour of :func:`style_for` ``label``."""
+    return style_for(label).color
 
 
 def _grid(n: int, max_cols: int = 3) -> tuple[int, int]:
@@ -349,10 +348,10 @@ def projection_2d(
                                edgecolor=PALETTE["LP exact"], label="LP exact bounds"))
     for label, S in sets.items():
         b = S.boundary(240)
-        col = color_for(label)
-        ax.plot(b[:, 0], b[:, 1], color=col, lw=1.4, label=label)
+        st = style_for(label)
+        ax.plot(b[:, 0], b[:, 1], color=st.color, ls=st.linestyle, lw=1.4, label=label)
         if centers is not None and label in centers:
-            ax.plot(*np.asarray(centers[label], dtype=float), "o", color=col, ms=3)
+            ax.plot(*np.asarray(centers[label], dtype=float), st.marker, color=st.color, ms=3)
     if truth_2d is not None:
         tr = np.asarray(truth_2d, dtype=float)
         if tr.shape != (2,):

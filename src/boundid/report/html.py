@@ -379,3 +379,7 @@ def write_index(reports_dir: str | Path, studies=None, title: str = "boundid rep
     write_file_atomically(out, _PAGE.substitute(csp=_CSP, meta_description=html.escape(" ".join(description.split())),
                                                 version=__version__, title=html.escape(title), css=_CSS, body=body))
     return out
+
+
+# the names the lesson handouts (boundid.teaching) build their pages with, as the study pages do
+Table, paragraphs, slug = _Table, _paragraphs, _slug

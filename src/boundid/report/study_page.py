@@ -234,7 +234,7 @@ def _convergence_sets(page: Page, r: StudyResult) -> None:
         page.section("Recursive set estimates over the samples")
         page.figure(F.volume_history({lab: (h.index, h.log_volumes) for lab, h in obe.items()}),
                     "ln volume of the OBE ellipsoids against the number of rows processed.", name="volume_history")
-        if r.model.name == "h4":
+        if "closed_loop" in r.model.experiments:  # the H4 paper's experiment and its figure
             first = next(iter(obe))
             page.figure(F.parameter_convergence(None, {lab: h for lab, h in obe.items()}, r.model.theta_true,
                                                 r.model.param_names, units=r.model.param_units),
@@ -244,7 +244,13 @@ def _convergence_sets(page: Page, r: StudyResult) -> None:
 
 def study_page(r: StudyResult) -> Page:
     """Build the page of ``r`` (nothing written). A section, figure or projection that fails is left
-    out and listed, with the run's own failures, in the table of the last section, "What failed"."""
+    out and listed, with the run's own failures, in the table of the last section, "What failed".
+    Each estimator is drawn in its method's style (:meth:`StudyConfig.styles`)."""
+    with F.method_styles(r.config.styles()):
+        return _page(r)
+
+
+def _page(r: StudyResult) -> Page:
     cfg = r.config
     page = Page(cfg.title, cfg.description.strip(), setup=_setup(r))
     failures = list(r.failures)

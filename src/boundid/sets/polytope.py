@@ -71,7 +71,7 @@ from boundid.sets.vertex_polytope import VertexPolytope, shadow
 #: largest dimension for which vertices() and volume() enumerate vertices exactly
 MAX_VERTEX_DIM = 6
 #: relative margin for "a side of a strip is reached by P" (LP solutions are accurate to ~1e-10)
-_TOUCH_TOL = 1e-8
+TOUCH_TOL = 1e-8
 #: LP feasibility tolerance of the pool rows, in frame units (a distance in z)
 LP_TOL = 1e-9
 #: stated tolerance of the vertex certificate, relative to P's half-widths (see Bounds)
@@ -431,10 +431,10 @@ class Polytope:
 
     def _box_reach(self, F: _Frame, rows: np.ndarray | None = None) -> np.ndarray:
         """Strips not implied by the box [-1, 1]^p of frame F (|g_k|_1 reaches a side, with a
-        relative margin _TOUCH_TOL): the strips of ``rows`` (None: all, one pass) that P can
+        relative margin TOUCH_TOL): the strips of ``rows`` (None: all, one pass) that P can
         touch if P lies in that box."""
         sel = np.zeros(0, dtype=np.int64) if rows is None else np.asarray(rows, dtype=np.int64)
-        keep = box_reach(self.W, self.y, self.e_max, sel, F.origin, F.scale, 1.0, _TOUCH_TOL)
+        keep = box_reach(self.W, self.y, self.e_max, sel, F.origin, F.scale, 1.0, TOUCH_TOL)
         return np.flatnonzero(keep) if rows is None else sel[keep]
 
     def _set_frame(self, F: _Frame, pool: np.ndarray | None = None) -> None:
@@ -552,7 +552,7 @@ class Polytope:
         {z : |r_k - w_k z| <= e_k t_up for the sample's strips}, whose bounding box (2p LPs on
         the sample) therefore holds z*: adding it as column bounds keeps gamma*, and then every
         later LP point has z in that box and t >= t_lo, so a strip with max over the box of
-        |r_k - w_k z| below e_k t_lo (one pass, margin _TOUCH_TOL) is never violated. None when
+        |r_k - w_k z| below e_k t_lo (one pass, margin TOUCH_TOL) is never violated. None when
         that box is not bounded (the sample does not close P) or adds nothing."""
         p = self.dim
         t_lo = float(x[p])
@@ -572,7 +572,7 @@ class Polytope:
         eng.set_col_bounds(np.append(np.maximum(zlo, eng.col_lo[:p]), eng.col_lo[p:]),
                            np.append(np.minimum(zhi, eng.col_hi[:p]), eng.col_hi[p:]))
         keep = box_reach(self.W, self.y, self.e_max, np.zeros(0, dtype=np.int64), F.to_theta(0.5 * (zlo + zhi)),
-                         F.scale * 0.5 * (zhi - zlo), t_lo, _TOUCH_TOL)
+                         F.scale * 0.5 * (zhi - zlo), t_lo, TOUCH_TOL)
         return np.flatnonzero(keep)
 
     def is_empty(self) -> bool:
@@ -872,7 +872,7 @@ class Polytope:
         cand = self._box_reach(F, None) if reach is None else np.asarray(reach, dtype=np.int64)
         G, b, opp, strip = self._candidate_sides(F, cand)
         Hp, hp = self._prior_rows(F)
-        tol = _TOUCH_TOL * (1.0 + np.abs(b))
+        tol = TOUCH_TOL * (1.0 + np.abs(b))
         live = np.ones(len(b), dtype=bool)
         keep = np.zeros(len(b), dtype=bool)
         if len(b):
@@ -899,8 +899,8 @@ class Polytope:
         up, lo = (r + self.e_max[rows]) / n, (r - self.e_max[rows]) / n
         reach = np.abs(A).sum(axis=1)
         nonzero = np.any(A != 0, axis=1)
-        u = nonzero & (reach > up - _TOUCH_TOL * (1.0 + np.abs(up)))
-        lw = nonzero & (-reach < lo + _TOUCH_TOL * (1.0 + np.abs(lo)))
+        u = nonzero & (reach > up - TOUCH_TOL * (1.0 + np.abs(up)))
+        lw = nonzero & (-reach < lo + TOUCH_TOL * (1.0 + np.abs(lo)))
         G = np.stack([A, -A], axis=1).reshape(-1, A.shape[1])
         b = np.stack([up, -lo], axis=1).ravel()
         opp = np.stack([-lo, up], axis=1).ravel()
@@ -961,14 +961,14 @@ class Polytope:
         rows, rhs = [], []
         for sgn in (1.0, -1.0):
             bound = sgn * c + h                     # sgn g^T z <= sgn c + h
-            sel = reach > bound - _TOUCH_TOL * (1.0 + np.abs(bound))
+            sel = reach > bound - TOUCH_TOL * (1.0 + np.abs(bound))
             rows.append(sgn * G[sel])
             rhs.append(bound[sel])
         p = self.dim
         if self.box is not None:
             zlo, zhi = (self.box[0] - cb) / hb, (self.box[1] - cb) / hb
             for sgn, bound in ((1.0, zhi), (-1.0, -zlo)):
-                sel = np.isfinite(bound) & (bound < 1.0 + _TOUCH_TOL)
+                sel = np.isfinite(bound) & (bound < 1.0 + TOUCH_TOL)
                 rows.append(sgn * np.eye(p)[sel])
                 rhs.append(bound[sel])
         if self.halfspaces is not None:
@@ -1076,7 +1076,7 @@ def _vertex_certificates(ks, v, G, b, Hp, hp, tol, live, keep) -> list[int]:
     with neither certificate."""
     p = G.shape[1]
     s, sp = b - G @ v, hp - Hp @ v                       # slacks at v
-    ptol = _TOUCH_TOL * (1.0 + np.abs(hp))
+    ptol = TOUCH_TOL * (1.0 + np.abs(hp))
     prior_act = np.flatnonzero(sp <= ptol)
     # rays stay in [-1, 1]^p: rows of every live side, the prior and that box
     box = np.vstack([np.eye(p), -np.eye(p)])

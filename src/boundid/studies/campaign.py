@@ -110,8 +110,8 @@ def replicate_rows(cfg: StudyConfig, scenario: Scenario, replicate: int) -> pd.D
                 continue
             estimates[(ec.label, regname)] = est
             ratio = np.nan
-            if est.guaranteed and "e_max" in ec.options:
-                ratio = float(np.max(np.abs(reg.y - reg.W @ model.theta_true)) / ec.options["e_max"])
+            if est.guaranteed and ec.e_max is not None:
+                ratio = float(np.max(np.abs(reg.y - reg.W @ model.theta_true)) / ec.e_max)
             extra[(ec.label, regname)] = (float(est.time_s), ratio, None)
     exact = None
     if ccfg.exact.regression is not None:

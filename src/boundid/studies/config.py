@@ -7,19 +7,24 @@ seed. See ``studies/*.toml`` for commented examples.
 
 from __future__ import annotations
 
+import dataclasses
 import numbers
+import types
+import typing
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 from boundid.errors import InputError, StudyError
+from boundid.estimators.method import Method, Style
+from boundid.estimators.registry import METHODS
 from boundid.experiments.measurement import TorqueNoise
+from boundid.models import registry as robots
 from boundid.studies import sizing
-from boundid.studies.registry import ROBOT_OPTIONS, closed_loop_options, make_robot
+from boundid.studies.registry import closed_loop_options, make_robot
 from boundid.studies.schema import Section, read_toml
 
-ROBOTS = ("direct_drive", "h4", "linear_toy")
 REGRESSIONS = ("inverse_dynamic", "filtered_dynamic", "supplied_energy", "filtered_power")
-METHODS = ("obe", "rls", "ols", "wls", "kalman")
 SDP_SETS = ("outer", "inner", "john")
 # folders other commands write beside the study pages (boundid bench, boundid teach): a study may
 # not take their name, or its report would replace them
@@ -92,10 +97,15 @@ class PriorConfig:
 
 @dataclass(frozen=True)
 class EstimatorConfig:
+    """One [[estimators]] table: the registered method's name, the label, the regressions it runs on,
+    its options (an instance of ``METHODS[method].options``) and the bound e_max of a method that
+    needs one (None otherwise)."""
+
     method: str
     label: str
     regressions: tuple[str, ...]
-    options: dict
+    options: Any
+    e_max: float | None = None
 
 
 @dataclass(frozen=True)
@@ -124,6 +134,10 @@ class StudyConfig:
     paper: dict
     file: Path
 
+    def styles(self) -> dict[str, Style]:
+        """{estimator label: the style of its method and options} (what the report draws it with)."""
+        return {e.label: METHODS[e.method].style_for(e.options) for e in self.estimators}
+
     def with_seed(self, seed: int) -> StudyConfig:
         """The same study with another seed (an integer >= 0, as numpy's SeedSequence needs)."""
         if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
@@ -131,49 +145,88 @@ class StudyConfig:
         return replace(self, seed=int(seed))
 
 
-_POSITIVE = {"lo": 0.0, "strict_lo": True}
-_ESTIMATOR_OPTIONS = {
-    # method: {option: (choices of a string option, or the range of a number as Section.float keywords)}
-    "obe": {"form": ("standard", "factorized"), "criterion": ("volume", "trace", "dasgupta-huang"),
-            "e_max": _POSITIVE},
-    "rls": {"theta0": {}, "P0": _POSITIVE, "forgetting": {"lo": 0.0, "strict_lo": True, "hi": 1.0}},
-    "ols": {"level": {"lo": 0.0, "strict_lo": True, "hi": 1.0, "strict_hi": True}},
-    "wls": {"level": {"lo": 0.0, "strict_lo": True, "hi": 1.0, "strict_hi": True}},
-    "kalman": {"theta0": {}, "P0": _POSITIVE, "R": _POSITIVE, "Q": {"lo": 0.0}},
-}
+def _option_kind(hint) -> tuple[str, tuple]:
+    """(kind, Literal choices) of an options field's type: "choice", "float", "int", "bool", "str"
+    (an ``X | None`` is X with None allowed)."""
+    args = tuple(a for a in typing.get_args(hint) if a is not type(None))
+    if typing.get_origin(hint) is typing.Literal:
+        return "choice", typing.get_args(hint)
+    if args and typing.get_origin(hint) in (typing.Union, types.UnionType):
+        return _option_kind(args[0])
+    for kind, t in (("bool", bool), ("int", int), ("float", float), ("str", str)):
+        if hint is t:
+            return kind, ()
+    raise TypeError(f"options field type {hint!r} is not one a study file can write")
 
 
-def _option_help(method: str) -> str:
-    parts = []
-    for key, spec in _ESTIMATOR_OPTIONS[method].items():
-        if isinstance(spec, tuple):
-            parts.append(f"{key} (one of {', '.join(spec)})")
+def _describe(f: dataclasses.Field, hint) -> str:
+    """One option for an error message: name, type, choices or range, default."""
+    kind, choices = _option_kind(hint)
+    m = f.metadata
+    if kind == "choice":
+        what = "one of " + ", ".join(map(repr, choices))
+    else:
+        ranges = [f"{'>' if m.get('strict_lo') else '>='} {m['lo']:g}"] if m.get("lo") is not None else []
+        ranges += [f"{'<' if m.get('strict_hi') else '<='} {m['hi']:g}"] if m.get("hi") is not None else []
+        what = {"float": "number", "int": "integer", "bool": "true or false", "str": "string"}[kind]
+        what += f" {', '.join(ranges)}" if ranges else ""
+    return f"{f.name} ({what}, {'optional' if f.default is None else f'default {f.default!r}'})"
+
+
+def option_help(method: Method) -> str:
+    """What an [[estimators]] table of ``method`` may hold, from its options dataclass."""
+    hints = typing.get_type_hints(method.options)
+    parts = [_describe(f, hints[f.name]) for f in dataclasses.fields(method.options)]
+    keys = "method, label, regressions" + (", e_max (number > 0, required)" if method.needs_bound else "")
+    return (f"the {method.name} estimator takes {keys}"
+            + (f" and the options {', '.join(parts)}" if parts else " and no options"))
+
+
+def read_options(sec: Section, method: Method):
+    """The ``method.options`` dataclass read from an [[estimators]] table: each field's type gives
+    the value's type (Literal: the allowed strings), its metadata the range
+    (:func:`boundid.estimators.method.option`); a former name is refused naming the new one."""
+    hints = typing.get_type_hints(method.options)
+    values = {}
+    for f in dataclasses.fields(method.options):
+        for old in f.metadata.get("renamed_from", ()):
+            if sec.has(old):
+                raise sec.error(old, f"was renamed {f.name!r} (the estimator protocol's prior vocabulary: center0, "
+                                     f"shape0); write {f.name} = {sec.data[old]!r}.")
+        if not sec.has(f.name):
+            continue
+        kind, choices = _option_kind(hints[f.name])
+        m = f.metadata
+        if kind == "choice":
+            values[f.name] = sec.str(f.name, choices=choices)
+        elif kind == "float":
+            values[f.name] = sec.float(f.name, lo=m.get("lo"), hi=m.get("hi"), strict_lo=m.get("strict_lo", False),
+                                       strict_hi=m.get("strict_hi", False))
+        elif kind == "int":
+            values[f.name] = sec.int(f.name, lo=None if m.get("lo") is None else int(m["lo"]))
+        elif kind == "bool":
+            values[f.name] = sec.bool(f.name)
         else:
-            ranges = []
-            if "lo" in spec:
-                ranges.append(f"{'>' if spec.get('strict_lo') else '>='} {spec['lo']:g}")
-            if "hi" in spec:
-                ranges.append(f"{'<' if spec.get('strict_hi') else '<='} {spec['hi']:g}")
-            parts.append(f"{key} (number{' ' + ', '.join(ranges) if ranges else ''})")
-    return f"the {method} estimator takes method, label, regressions and the options {', '.join(parts)}"
+            values[f.name] = sec.str(f.name)
+    return method.options(**values)
 
 
 def _estimator(sec: Section, regressions: tuple[str, ...]) -> EstimatorConfig:
-    method = sec.str("method", choices=METHODS)
+    name = sec.str("method", choices=tuple(METHODS))
+    method = METHODS[name]
     regs = tuple(sec.list("regressions", choices=regressions))
     if not regs:
         raise sec.error("regressions", "names no regression model.")
-    label = sec.str("label", default=method.upper())
-    options = {}
-    for key, spec in _ESTIMATOR_OPTIONS[method].items():
-        if not sec.has(key):
-            continue
-        options[key] = sec.str(key, choices=spec) if isinstance(spec, tuple) else sec.float(key, **spec)
-    if method == "obe" and "e_max" not in options:
-        raise sec.error("e_max", "is required for an obe estimator: the bound on |y - w^T theta| in the "
-                                 "regression's unit (N m for the dynamic models, J for the energy model).")
-    sec.check_unknown(_option_help(method))
-    return EstimatorConfig(method, label, regs, options)
+    label = sec.str("label", default=name.upper())
+    options = read_options(sec, method)
+    e_max = None
+    if method.needs_bound:
+        if not sec.has("e_max"):
+            raise sec.error("e_max", f"is required for a {name} estimator: the bound on |y - w^T theta| in the "
+                                     "regression's unit (N m for the dynamic models, J for the energy model).")
+        e_max = sec.float("e_max", lo=0.0, strict_lo=True)
+    sec.check_unknown(option_help(method))
+    return EstimatorConfig(name, label, regs, options, e_max)
 
 
 def _experiment(sec: Section, base: Path) -> ExperimentConfig:
@@ -251,8 +304,8 @@ def load_study(path: str | Path) -> StudyConfig:
         raise st.error("name", f"{name!r} is the folder of another command's reports "
                                f"({', '.join(RESERVED_NAMES)}); choose another name.")
     rb = top.section("robot", required=True)
-    robot = rb.str("model", choices=ROBOTS)
-    robot_options = rb.options("options", ROBOT_OPTIONS[robot](), f"robot {robot!r}")
+    robot = rb.str("model", choices=tuple(robots.ROBOTS))
+    robot_options = rb.options("options", robots.robot_options(robot), f"robot {robot!r}")
     rb.check_unknown()
     model = make_robot(robot, robot_options)  # the model checks the option values
     experiment = _experiment(top.section("experiment", required=True), path.parent)
@@ -302,9 +355,9 @@ def load_study(path: str | Path) -> StudyConfig:
     if exact.regression is not None and exact.e_max is None:
         raise ex.error("e_max", "is required with `regression`: the exact polytope needs the error bound (N m).")
     for e in estimators:
-        if e.method == "obe" and exact.regression in e.regressions and e.options.get("e_max") != exact.e_max:
+        if METHODS[e.method].needs_bound and exact.regression in e.regressions and e.e_max != exact.e_max:
             raise ex.error("e_max", f"is {exact.e_max} but estimator {e.label!r} bounds the same {exact.regression} "
-                                    f"rows by e_max = {e.options.get('e_max')}: a set is certified against the "
+                                    f"rows by e_max = {e.e_max}: a set is certified against the "
                                     "polytope of its own bound, so the two must be equal.")
     ex.check_unknown()
     cfg = StudyConfig(

@@ -13,6 +13,7 @@ from boundid.experiments.simulation import measure, simulate_open_loop
 from boundid.models import RobotModel
 from boundid.studies import sizing
 from boundid.studies.config import StudyConfig
+from boundid.studies.h4_experiment import closed_loop_data
 
 
 @dataclass
@@ -47,16 +48,16 @@ def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> St
         return StudyData(recording=rec, info={"source": str(m.file)})
     if exp.control == "open_loop":
         return _open_loop(cfg, model, rng)
-    from boundid.studies.h4_experiment import closed_loop_data
-
-    return closed_loop_data(cfg, model, rng)
+    recording, validation, info = closed_loop_data(cfg, model, rng)
+    return StudyData(recording=recording, validation=validation, info=info)
 
 
 def _open_loop(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:
     exp = cfg.experiment
-    if model.n_joints != 2:
+    if "open_loop" not in model.experiments:
         raise StudyError(f"{cfg.file}: experiment.control = 'open_loop' drives the paper's 2-joint torques "
-                         f"(31)-(32); the {model.name} model has {model.n_joints} joints.")
+                         f"(31)-(32), which the {cfg.robot} model does not support; its experiments: "
+                         f"{', '.join(model.experiments) or 'none (use measured data)'}.")
     excitation = RampedMultisine.direct_drive_paper()
     traj = simulate_open_loop(model, excitation, exp.duration_s, exp.sample_period_s,
                               coulomb_width=exp.coulomb_width_rad_s)

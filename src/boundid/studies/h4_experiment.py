@@ -9,15 +9,17 @@ from boundid.experiments.h4_pipeline import H4ExperimentConfig, simulate_h4_expe
 from boundid.experiments.recording import Recording
 from boundid.models import RobotModel
 from boundid.studies.config import StudyConfig
-from boundid.studies.data import StudyData
 
 
-def closed_loop_data(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:
-    """Identification and validation recordings (encoder angles, measured torques) of the H4."""
+def closed_loop_data(cfg: StudyConfig, model: RobotModel,
+                     rng: np.random.Generator) -> tuple[Recording, Recording, dict]:
+    """Identification and validation recordings (encoder angles, measured torques) of the H4 and
+    the experiment's facts for the report (:class:`boundid.studies.data.StudyData` holds them)."""
     exp = cfg.experiment
-    if model.name != "h4":
-        raise StudyError(f"{cfg.file}: experiment.control = 'closed_loop' is the H4 paper's experiment; "
-                         f"use 'open_loop' for {model.name}.")
+    if "closed_loop" not in model.experiments:
+        raise StudyError(f"{cfg.file}: experiment.control = 'closed_loop' is the H4 paper's experiment, which the "
+                         f"{cfg.robot} model does not support; its experiments: "
+                         f"{', '.join(model.experiments) or 'none (use measured data)'}.")
     if exp.validation_duration_s <= 0:
         raise StudyError(f"{cfg.file}: experiment.validation_duration_s must be > 0 for the cross-validation "
                          "trajectory of the closed-loop experiment.")
@@ -33,4 +35,4 @@ def closed_loop_data(cfg: StudyConfig, model: RobotModel, rng: np.random.Generat
         r = recs[name]
         return Recording(t=r.run.t, q=r.run.q_meas, tau=r.tau_meas)
 
-    return StudyData(recording=recording("identification"), validation=recording("validation"), info=info)
+    return recording("identification"), recording("validation"), info

@@ -1,5 +1,6 @@
-"""What a study file may name: robots (with their options), estimators, regression models, and the
-options of the closed-loop experiment.
+"""What a study file may name beside the estimators (:mod:`boundid.estimators.registry`) and the
+robots (:mod:`boundid.models.registry`): the regression models and the options of the closed-loop
+experiment; and :func:`make_robot`, the robot registry's factory with study-file errors.
 
 Each options table is described by {option: default}; the default gives the type a study file
 must write (see :meth:`boundid.studies.schema.Section.options`).
@@ -8,43 +9,11 @@ must write (see :meth:`boundid.studies.schema.Section.options`).
 from __future__ import annotations
 
 import dataclasses
-import inspect
-from collections.abc import Callable
 
 from boundid.errors import InputError, StudyError
-from boundid.models import DirectDriveArm, LinearToy, RobotModel
-from boundid.models.direct_drive import PHYSICAL
-
-
-def _h4(options: dict) -> RobotModel:
-    from boundid.models.h4 import H4Geometry, H4Robot
-
-    return H4Robot(H4Geometry(**options)) if options else H4Robot()
-
-
-def _h4_options() -> dict:
-    from boundid.models.h4 import H4Geometry
-
-    return {f.name: f.default for f in dataclasses.fields(H4Geometry) if f.init}
-
-
-def _keyword_defaults(cls) -> dict:
-    return {k: p.default for k, p in inspect.signature(cls.__init__).parameters.items()
-            if p.default is not inspect.Parameter.empty}
-
-
-ROBOTS: dict[str, Callable[[dict], RobotModel]] = {
-    "direct_drive": lambda options: DirectDriveArm(**options),
-    "h4": _h4,
-    "linear_toy": lambda options: LinearToy(**options),
-}
-
-# robot.options of each robot: {option: default} (physical values in SI units; the H4 geometry in m, rad)
-ROBOT_OPTIONS: dict[str, Callable[[], dict]] = {
-    "direct_drive": lambda: dict(PHYSICAL),
-    "h4": _h4_options,
-    "linear_toy": lambda: _keyword_defaults(LinearToy),
-}
+from boundid.models import RobotModel
+from boundid.models.registry import ROBOTS
+from boundid.models.registry import make_robot as _make_robot
 
 
 def closed_loop_options() -> dict:
@@ -57,15 +26,6 @@ def closed_loop_options() -> dict:
                                    "fast_period", "slow_fraction")}
 
 
-ESTIMATORS = {
-    "obe": "Optimal Bounding Ellipsoid, guaranteed set (form: standard | factorized; criterion: volume | "
-           "trace | dasgupta-huang; e_max in the regression's unit)",
-    "rls": "recursive least squares (theta0, P0, forgetting)",
-    "ols": "ordinary least squares with Student-t intervals",
-    "wls": "IDIM-WLS: rows weighted by each joint's residual standard deviation",
-    "kalman": "Kalman filter on the parameters (theta0, P0, R, Q)",
-}
-
 REGRESSIONS = {
     "inverse_dynamic": "tau = Y(q, qd, qdd) theta; qd, qdd by central differences of low-passed q",
     "filtered_dynamic": "f*tau = (lambda s/(s+lambda)) Ya theta + f*(Yb theta); no acceleration",
@@ -75,11 +35,11 @@ REGRESSIONS = {
 
 
 def make_robot(name: str, options: dict) -> RobotModel:
-    """The named robot model with ``options`` (already type-checked against ROBOT_OPTIONS[name]);
-    StudyError naming robot.options when the model refuses their values."""
+    """The named robot model with ``options`` (already type-checked against its Options); StudyError
+    naming robot.options when the model refuses their values."""
     if name not in ROBOTS:
         raise StudyError(f"unknown robot {name!r}; choose among {', '.join(ROBOTS)}.")
     try:
-        return ROBOTS[name](options)
+        return _make_robot(name, options)
     except (InputError, TypeError) as exc:
         raise StudyError(f"robot.options for {name}: {exc}") from None

@@ -10,55 +10,19 @@ import numpy as np
 import pandas as pd
 
 from boundid.errors import RUN_FAILURES, StudyError
-from boundid.estimators import OBE, RLS, Estimate, KalmanEstimator, ols, wls
+from boundid.estimators import Estimate
 from boundid.estimators.certify import validate
-from boundid.experiments import regression as reg_builders
-from boundid.experiments.filters import align
-from boundid.experiments.h4_pipeline import identification_regression
-from boundid.experiments.recording import Recording
+from boundid.estimators.method import Problem
+from boundid.estimators.registry import METHODS
 from boundid.experiments.regression import Regression
 from boundid.models import RobotModel
 from boundid.sets import Box, Polytope, SDPResult, inner_ellipsoid, john_outer, outer_ellipsoid
-from boundid.studies.config import EstimatorConfig, PreprocessingConfig, PriorConfig, StudyConfig
+from boundid.studies.config import EstimatorConfig, PriorConfig, StudyConfig
 from boundid.studies.data import StudyData, acquire
 from boundid.studies.progress import QUIET, Progress
 from boundid.studies.registry import make_robot
-
-# ------------------------------------------------------------------------------ regressions
-
-
-def inverse_dynamic_rows(model: RobotModel, rec: Recording, pp: PreprocessingConfig) -> Regression:
-    """IDIM rows by the H4 paper's pipeline (:func:`identification_regression`, with the analytic
-    Jdot rather than the paper's central difference, so any robot model works): zero-phase
-    low-pass and central differences for qd, qdd; torques and regressor columns low-pass filtered
-    and decimated together ("parallel filtering"); the first and last ``3 / f_c`` seconds, where the
-    zero-phase filters start from assumed edge values, dropped."""
-    h = rec.h
-    fc = pp.lowpass_cutoff_hz or 0.8 * 0.5 / (h * pp.decimation)
-    return identification_regression(model, rec.t, rec.q, rec.tau, pp.lowpass_cutoff_hz, pp.decimation,
-                                     decimation_cutoff_hz=fc, jdot="analytic", edge_s=3.0 / fc,
-                                     min_speed=pp.min_speed_rad_s)
-
-
-def build_regressions(model: RobotModel, rec: Recording, pp: PreprocessingConfig,
-                      names: tuple[str, ...]) -> dict[str, Regression]:
-    """The named regression models built from one recording."""
-    out: dict[str, Regression] = {}
-    aligned = None
-    for name in names:
-        if name == "inverse_dynamic":
-            out[name] = inverse_dynamic_rows(model, rec, pp)
-            continue
-        if aligned is None:
-            aligned = align(rec.q, rec.tau, rec.h, pp.pairing, t0=float(rec.t[0]))
-        a = aligned
-        if name == "supplied_energy":
-            out[name] = reg_builders.supplied_energy(model, a.q, a.qd, a.tau, a.t)
-        else:
-            build = getattr(reg_builders, name)
-            out[name] = build(model, a.q, a.qd, a.tau, a.t, lam=pp.lambda_rad_s, discretisation=pp.discretisation)
-    return out
-
+from boundid.studies.regressions import build_regressions
+from boundid.studies.validation import validate_study
 
 # ------------------------------------------------------------------------------ estimators
 
@@ -75,29 +39,22 @@ def prior_box(model: RobotModel, prior: PriorConfig) -> tuple[np.ndarray, np.nda
     return center, half
 
 
+def estimation_problem(ec: EstimatorConfig, reg: Regression, model: RobotModel, prior: PriorConfig) -> Problem:
+    """The regression as the estimator registry sees it: rows grouped by joint, the study's prior
+    box, the estimator's bound e_max, a history of at most ~2000 records."""
+    return Problem(W=reg.W, y=reg.y, groups=reg.joint, names=model.param_names, unit=reg.unit,
+                   prior=Box.from_center(*prior_box(model, prior)), e_max=ec.e_max,
+                   record_every=max(1, reg.n_rows // 2000))
+
+
 def run_estimator(ec: EstimatorConfig, reg: Regression, model: RobotModel, prior: PriorConfig) -> Estimate:
-    """One estimator on one regression; the Estimate's info gets the label and regression."""
-    o, names, p = ec.options, model.param_names, model.p
-    W, y = reg.W, reg.y
-    record_every = max(1, reg.n_rows // 2000)
+    """One registered estimator (:data:`boundid.estimators.registry.METHODS`) on one regression."""
+    method = METHODS[ec.method]
+    if method.needs_bound and ec.e_max is None:
+        raise StudyError(f"estimator {ec.label!r}: e_max (the bound on |y - w^T theta|, in {reg.unit}) is required "
+                         f"by the {ec.method} method.")
     t0 = time.perf_counter()
-    if ec.method == "obe":
-        if "e_max" not in o:
-            raise StudyError(f"estimator {ec.label!r}: option e_max (the bound on |y - w^T theta|, in {reg.unit}) "
-                             "is required.")
-        center, half = prior_box(model, prior)
-        est = OBE(p, prior=Box.from_center(center, half), criterion=o.get("criterion", "volume"),
-                  form=o.get("form", "factorized"), record_every=record_every, names=names).fit(W, y, o["e_max"])
-    elif ec.method == "rls":
-        est = RLS(p, center0=o.get("theta0", 0.0), shape0=o.get("P0", 1000.0), forgetting=o.get("forgetting", 1.0),
-                  record_every=record_every, names=names).fit(W, y)
-    elif ec.method == "kalman":
-        est = KalmanEstimator(p, center0=o.get("theta0", 0.0), shape0=o.get("P0", 1000.0), R=o.get("R", 1.0),
-                              Q=o.get("Q", 0.0), record_every=record_every, names=names).fit(W, y)
-    elif ec.method == "ols":
-        est = ols(W, y, level=o.get("level", 0.95), names=names)
-    else:
-        est = wls(W, y, reg.joint, level=o.get("level", 0.95), names=names)
+    est = method.run(estimation_problem(ec, reg, model, prior), ec.options)
     if not np.isfinite(est.time_s):
         est.time_s = time.perf_counter() - t0
     return est
@@ -297,8 +254,6 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
         else:
             failures += [Failure("exact optima", what, msg) for what, msg in exact.errors.items()]
         timings["exact"] = time.perf_counter() - t0
-
-    from boundid.studies.validation import validate_study
 
     t0 = time.perf_counter()
     with progress.stage(f"{cfg.name}: validation"):

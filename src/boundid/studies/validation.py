@@ -20,6 +20,7 @@ from boundid.experiments.simulation import simulate_open_loop
 from boundid.models import RobotModel
 from boundid.studies.config import StudyConfig
 from boundid.studies.data import StudyData
+from boundid.studies.regressions import inverse_dynamic_rows
 
 
 @dataclass
@@ -99,7 +100,6 @@ def validate_study(cfg: StudyConfig, model: RobotModel, data: StudyData,
         out["resimulation"] = [resimulate(cfg, model, data, f"{lab} / {rn}", est.center)
                                for (lab, rn), est in estimates.items()]
     if data.validation is not None:
-        from boundid.studies.runner import inverse_dynamic_rows
 
         reg = inverse_dynamic_rows(model, data.validation, cfg.preprocessing)
         ests = {lab: e for (lab, rn), e in estimates.items() if rn == "inverse_dynamic"}

@@ -1,0 +1,31 @@
+"""What a study may say about a URDF robot, without loading pinocchio (~0.5 s): the names of the
+example-robot-data arms and the options dataclass of :class:`boundid.models.urdf.UrdfRobot`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+#: Fixed-base arms of ``example-robot-data``: name -> (URDF path under its ``robots`` folder,
+#: default joint selection, None for every movable joint).
+EXAMPLE_ROBOTS: dict[str, tuple[str, tuple[str, ...] | None]] = {
+    "ur3": ("ur_description/urdf/ur3_robot.urdf", None),
+    "ur5": ("ur_description/urdf/ur5_robot.urdf", None),
+    "ur10": ("ur_description/urdf/ur10_robot.urdf", None),
+    "panda": ("panda_description/urdf/panda.urdf", tuple(f"panda_joint{i}" for i in range(1, 8))),
+    "kinova": ("kinova_description/robots/kinova.urdf", None),
+    "xarm7": ("xarm_description/urdf/xarm7.urdf", None),
+    "z1": ("z1_description/urdf/z1.urdf", tuple(f"joint{i}" for i in range(1, 7))),
+    "so100": ("so_arm_description/urdf/so100.urdf",
+              ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll")),
+    "so101": ("so_arm_description/urdf/so101.urdf",
+              ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll")),
+    "double_pendulum": ("double_pendulum_description/urdf/double_pendulum.urdf", None),
+}
+
+
+@dataclass(frozen=True)
+class UrdfOptions:
+    """robot.options of ``model = "urdf"``: ``source``, a name of :data:`EXAMPLE_ROBOTS` (e.g. "ur5",
+    "panda") or the path of a .urdf file (relative to the folder the command runs in)."""
+
+    source: str = "ur5"

@@ -1,0 +1,45 @@
+"""The regression models of a study, built from its recording (the runner and the validation
+experiment both use them)."""
+
+from __future__ import annotations
+
+from boundid.experiments import regression as reg_builders
+from boundid.experiments.filters import align
+from boundid.experiments.h4_pipeline import identification_regression
+from boundid.experiments.recording import Recording
+from boundid.experiments.regression import Regression
+from boundid.models import RobotModel
+from boundid.studies.config import PreprocessingConfig
+
+
+def inverse_dynamic_rows(model: RobotModel, rec: Recording, pp: PreprocessingConfig) -> Regression:
+    """IDIM rows by the H4 paper's pipeline (:func:`identification_regression`, with the analytic
+    Jdot rather than the paper's central difference, so any robot model works): zero-phase
+    low-pass and central differences for qd, qdd; torques and regressor columns low-pass filtered
+    and decimated together ("parallel filtering"); the first and last ``3 / f_c`` seconds, where the
+    zero-phase filters start from assumed edge values, dropped."""
+    h = rec.h
+    fc = pp.lowpass_cutoff_hz or 0.8 * 0.5 / (h * pp.decimation)
+    return identification_regression(model, rec.t, rec.q, rec.tau, pp.lowpass_cutoff_hz, pp.decimation,
+                                     decimation_cutoff_hz=fc, jdot="analytic", edge_s=3.0 / fc,
+                                     min_speed=pp.min_speed_rad_s)
+
+
+def build_regressions(model: RobotModel, rec: Recording, pp: PreprocessingConfig,
+                      names: tuple[str, ...]) -> dict[str, Regression]:
+    """The named regression models built from one recording."""
+    out: dict[str, Regression] = {}
+    aligned = None
+    for name in names:
+        if name == "inverse_dynamic":
+            out[name] = inverse_dynamic_rows(model, rec, pp)
+            continue
+        if aligned is None:
+            aligned = align(rec.q, rec.tau, rec.h, pp.pairing, t0=float(rec.t[0]))
+        a = aligned
+        if name == "supplied_energy":
+            out[name] = reg_builders.supplied_energy(model, a.q, a.qd, a.tau, a.t)
+        else:
+            build = getattr(reg_builders, name)
+            out[name] = build(model, a.q, a.qd, a.tau, a.t, lam=pp.lambda_rad_s, discretisation=pp.discretisation)
+    return out
