@@ -109,6 +109,12 @@ class RobotModel(ABC):
                               np.asarray(u, float) - self.bias_torque(qq, vv, th, coulomb_width)[0])
         return acc.tolist()
 
+    def physical_constraints(self):
+        """The inequalities every physically meaningful theta satisfies (non-negative masses,
+        inertias and friction, pseudo-inertia LMIs ...) as a
+        :class:`boundid.sets.constraints.PhysicalConstraints`, or None when the robot states none."""
+        return None
+
     def rest_position(self) -> np.ndarray:
         """Joint angles (n,) an exciting trajectory starts and ends at (default: zeros)."""
         return np.zeros(self.n_joints)

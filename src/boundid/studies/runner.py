@@ -19,6 +19,7 @@ from boundid.models import RobotModel
 from boundid.sets import Box, Polytope, SDPResult, inner_ellipsoid, john_outer, outer_ellipsoid
 from boundid.studies.config import EstimatorConfig, PriorConfig, StudyConfig
 from boundid.studies.data import StudyData, acquire
+from boundid.studies.physical_stage import PhysicalResult, physical_stage
 from boundid.studies.progress import QUIET, Progress
 from boundid.studies.registry import make_robot
 from boundid.studies.regressions import build_regressions
@@ -72,7 +73,9 @@ class ExactResult:
     bounds: exact LP parameter bounds (None if the data are inconsistent with the bounds);
     sdp: SDP ellipsoids by name ("outer", "inner", "john"); errors: what failed, by name
     (reported, never replaced by a wrong answer); certificates: per set-membership estimate label
-    (guaranteed or unverified: an unverified set is certified too).
+    (guaranteed or unverified: an unverified set is certified too); physical: the physically
+    consistent exact bounds beside the plain ones (:mod:`boundid.studies.physical_stage`; None when
+    the robot states no physical constraints or the LP bounds failed).
     """
 
     regression: str
@@ -86,6 +89,7 @@ class ExactResult:
     errors: dict[str, str] = field(default_factory=dict)
     certificates: dict = field(default_factory=dict)
     time_s: dict[str, float] = field(default_factory=dict)
+    physical: PhysicalResult | None = None
 
     @property
     def consistent(self) -> bool:
@@ -254,6 +258,20 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
         else:
             failures += [Failure("exact optima", what, msg) for what, msg in exact.errors.items()]
         timings["exact"] = time.perf_counter() - t0
+        constraints = model.physical_constraints()
+        if exact is not None and exact.bounds is not None and constraints is not None:
+            t0 = time.perf_counter()
+            with progress.stage(f"{cfg.name}: physically consistent bounds"):
+                on_exact = {lab: e for (lab, rn), e in estimates.items() if rn == cfg.exact.regression}
+                truth = model.theta_true if cfg.experiment.source == "simulate" else None
+                try:
+                    exact.physical = physical_stage(exact.polytope, constraints, model.param_names, on_exact, truth)
+                except RUN_FAILURES as exc:
+                    failures.append(Failure("physical consistency", cfg.exact.regression, _reason(exc)))
+                else:
+                    if exact.physical.error is not None:
+                        failures.append(Failure("physical consistency", cfg.exact.regression, exact.physical.error))
+            timings["physical"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
     with progress.stage(f"{cfg.name}: validation"):
