@@ -113,17 +113,21 @@ def draw_sample(cfg: dict, module: str, db: WorkDB) -> tuple[int, int]:
     """Mark every mutant outside the seeded stratified sample as skipped; return (population, drawn)."""
     excluded = [re.compile(p) for p in cfg["exclude_operators"]]
     definitions = re.compile(cfg["definitions"].get(module, ".*"))
-    _delete_results(db)
     sites = defaultdict(list)
     for item in db.work_items:
         (m,) = item.mutations
         if any(p.search(m.operator_name) for p in excluded) or not definitions.search(m.definition_name or ""):
             continue
         sites[(tuple(m.start_pos), tuple(m.end_pos))].append(item.job_id)
-    rng = random.Random(f"{cfg['seed']}:{module}")
+    # a seeded shuffle of the sites, of which the first k are drawn (a smaller fraction draws a subset),
+    # and at each drawn site one variant chosen by the site's own seed
     keys = sorted(sites)
+    random.Random(f"{cfg['seed']}:{module}").shuffle(keys)
     k = min(len(keys), max(cfg["min_sites"], round(cfg["fraction"] * len(keys))))
-    drawn = {rng.choice(sorted(sites[s])) for s in rng.sample(keys, k)}
+    drawn = {random.Random(f"{cfg['seed']}:{module}:{s}").choice(sorted(sites[s])) for s in keys[:k]}
+    # results already judged for drawn mutants are kept; everything else is (re)marked skipped
+    kept = {job for job, r in db.results if job in drawn and r.worker_outcome != WorkerOutcome.SKIPPED}
+    _delete_results(db, [item.job_id for item in db.work_items if item.job_id not in kept])
     skip = [item.job_id for item in db.work_items if item.job_id not in drawn]
     db.set_multiple_results(skip, WorkResult(worker_outcome=WorkerOutcome.SKIPPED))
     return sum(len(v) for v in sites.values()), len(drawn)
