@@ -170,7 +170,9 @@ def execute(cfg: dict, module: str, workdir: Path, rerun_survivors: bool) -> flo
     db_path = SESSIONS / f"{slug(module)}.sqlite"
     if rerun_survivors:
         with use_db(str(db_path), WorkDB.Mode.open) as db:
-            again = [job for job, r in db.results if r.test_outcome == TestOutcome.SURVIVED]
+            items = {i.job_id: i.mutations[0] for i in db.work_items}
+            again = [job for job, r in db.results if r.test_outcome == TestOutcome.SURVIVED
+                     and (module, items[job].operator_name, items[job].occurrence) not in equivalent_keys()]
             _delete_results(db, again)
     with use_db(str(db_path), WorkDB.Mode.open) as db:
         pending = sum(1 for _ in db.pending_work_items)
@@ -229,12 +231,17 @@ def _line(module: str, start_pos) -> str:
     return lines[start_pos[0] - 1].strip()
 
 
+def equivalent_keys() -> dict:
+    """(module, operator, occurrence) -> reason, from tools/mutation_equivalent.toml."""
+    if not EQUIVALENT.exists():
+        return {}
+    with open(EQUIVALENT, "rb") as f:
+        return {(e["module"], e["operator"], int(e["occurrence"])): e["reason"]
+                for e in tomllib.load(f).get("equivalent", [])}
+
+
 def collect(cfg: dict) -> tuple[list[dict], dict]:
-    equivalent = {}
-    if EQUIVALENT.exists():
-        with open(EQUIVALENT, "rb") as f:
-            for e in tomllib.load(f).get("equivalent", []):
-                equivalent[(e["module"], e["operator"], int(e["occurrence"]))] = e["reason"]
+    equivalent = equivalent_keys()
     rows, used = [], set()
     for module in cfg["modules"]:
         db_path = SESSIONS / f"{slug(module)}.sqlite"
