@@ -280,7 +280,9 @@ def report(args) -> None:
         count[r["status"]] += 1
     total = len(rows)
     detected = count["killed"] + count["timeout"]
-    score = detected / max(total - count["equivalent"], 1)
+    score = detected / max(total - count["equivalent"], 1)          # a pending mutant counts as a survivor
+    judged = total - count["pending"]
+    score_judged = detected / max(judged - count["equivalent"], 1)
     population = sum(json.loads((SESSIONS / f"{slug(m)}.sample.json").read_text())["population"]
                      for m in cfg["modules"])
     import cosmic_ray
@@ -309,8 +311,11 @@ def report(args) -> None:
         f"| {total} | {count['killed']} | {count['timeout']} | {count['incompetent']} | {count['equivalent']} | "
         f"{count['survived']} | {count['pending']} | **{score:.1%}** |",
         "",
-        "Score = (killed + timeout) / (mutants − equivalent); a timeout is a mutant the tests detected by "
-        f"running over {cfg['timeout']:.0f} s. Goal ≥ 90 %.",
+        "Score = (killed + timeout) / (mutants − equivalent), a pending (not yet judged) mutant counted as a "
+        f"survivor; a timeout is a mutant the tests detected by running over {cfg['timeout']:.0f} s. Goal ≥ 90 %."
+        + (f" Over the {judged} judged mutants only: {score_judged:.1%} "
+           "(the run was stopped before judging the pending ones; `make mutation` resumes it)."
+           if count["pending"] else ""),
         "",
         "## By module",
         "",
