@@ -1,0 +1,46 @@
+"""Every SDP entry point reports a failed solve unless the caller asked for the fallback (a gap the
+mutation run of issue 13 found: only inner_ellipsoid was checked without the fallback)."""
+
+from __future__ import annotations
+
+import cvxpy as cp
+import numpy as np
+import pytest
+
+from boundid.errors import SolverError
+from boundid.sets import Ellipsoid, Polytope, sdp
+
+
+def _polytope():
+    rng = np.random.default_rng(8)
+    W = rng.normal(size=(15, 2))
+    e = 0.5 + rng.random(15)
+    y = W @ rng.normal(size=2) + e * rng.uniform(-1, 1, 15)
+    return Polytope.from_strips(W, y, e)
+
+
+CALLS = {
+    "outer_ellipsoid": lambda: sdp.outer_ellipsoid(_polytope()),
+    "inner_ellipsoid": lambda: sdp.inner_ellipsoid(_polytope()),
+    "john_outer": lambda: sdp.john_outer(_polytope()),
+    "enclosing_ellipsoid": lambda: sdp.enclosing_ellipsoid(np.random.default_rng(1).normal(size=(20, 2))),
+    "step_ellipsoid": lambda: sdp.step_ellipsoid(Ellipsoid(np.zeros(2), np.eye(2)), [1.0, 0.5], 0.3, 0.4),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CALLS))
+def test_failed_solve_raises_by_default(monkeypatch, name):
+    """Clarabel made to end 'infeasible_inaccurate' (the real solve runs, its status is replaced):
+    with the default arguments the call raises SolverError naming that status, never a silent
+    SCS answer."""
+    real = cp.Problem.solve
+
+    def clarabel_fails(self, *args, **kwargs):
+        out = real(self, *args, **kwargs)
+        if kwargs.get("solver") == cp.CLARABEL:
+            self._status = "infeasible_inaccurate"
+        return out
+
+    monkeypatch.setattr(cp.Problem, "solve", clarabel_fails)
+    with pytest.raises(SolverError, match="infeasible_inaccurate"):
+        CALLS[name]()
