@@ -21,17 +21,17 @@ def test_rls_relative_std_and_time():
     between 0 and the wall time measured around the call."""
     W, y = _data()
     t0 = time.perf_counter()
-    est = RLS(3, P0=1e6).fit(W, y)
+    est = RLS(3, shape0=1e6).fit(W, y)
     wall = time.perf_counter() - t0
-    np.testing.assert_allclose(est.info["rel_std_pct"], 100.0 * est.info["std_err"] / np.abs(est.center),
+    np.testing.assert_allclose(est.statistics.rel_std_pct, 100.0 * est.statistics.std_err / np.abs(est.center),
                                rtol=1e-12)
-    assert 0.0 <= est.info["time_s"] <= wall
+    assert 0.0 <= est.time_s <= wall
 
 
 def test_estimates_without_outliers_have_no_outlier_residuals():
     """Least-squares estimates never flag outliers: outliers and outlier_residuals are both empty."""
     W, y = _data(1)
-    for est in (ols(W, y), RLS(3, P0=1e6).fit(W, y)):
+    for est in (ols(W, y), RLS(3, shape0=1e6).fit(W, y)):
         assert est.outliers.size == 0 and est.outlier_residuals.size == 0
 
 

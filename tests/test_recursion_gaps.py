@@ -8,6 +8,7 @@ import pytest
 from boundid.estimators import ZonotopeRecursion
 from boundid.estimators import _set_kernels as K
 from boundid.estimators.zonotope_recursion import zonotope_step
+from boundid.sets import Box
 
 
 @pytest.mark.parametrize("p", [2, 4])
@@ -33,7 +34,7 @@ def test_zonotope_counts_and_outlier_residuals_match_the_numpy_steps(p):
         n_upd += st == K.UPDATE and choice != -2            # -2: Z itself kept (no update)
         if st == K.OUTLIER:
             res.append(y[k] - W[k] @ c_before)
-    est = ZonotopeRecursion(p, half_widths0=h0).fit(W, y, e)
-    assert est.info["n_updates"] == n_upd
+    est = ZonotopeRecursion(p, prior=Box.from_center(np.zeros(p), h0)).fit(W, y, e)
+    assert est.n_updates == n_upd
     np.testing.assert_array_equal(est.outliers, bad)
     np.testing.assert_allclose(est.outlier_residuals, res, rtol=1e-9)
