@@ -366,8 +366,12 @@ def projection_2d(
     return fig
 
 
+_MARKERS = ("o", "s", "D", "^", "v", "P", "X", "<", ">", "h")
+
+
 def width_ratios(widths, reference: str = "LP exact") -> Figure:
-    """Per-parameter interval width of each set estimate over the exact LP width (log scale).
+    """Per-parameter interval width of each set estimate over the exact LP width: a dot plot, one
+    row per parameter, one dot per estimate on a log axis (the reference is the line at 1).
 
     widths : DataFrame, one row per parameter (index = names), one column per estimate, holding
         interval widths hi - lo; column ``reference`` holds the exact LP widths. Ratios > 1 are
@@ -382,27 +386,31 @@ def width_ratios(widths, reference: str = "LP exact") -> Figure:
     if not others:
         raise InputError("width_ratios needs at least one estimate column besides the reference.")
     p = len(widths.index)
-    fig = Figure(figsize=(max(4.5, 0.9 * p + 1.5), 3.4), dpi=DPI, layout="constrained")
+    fig = Figure(figsize=(8.5, 0.32 * p + 1.6), dpi=DPI, layout="constrained")
     ax = fig.subplots()
-    step = 0.8 / len(others)
-    x = np.arange(p)
-    extreme = 0.1  # |log10 ratio| shown at least, so ratios near 1 are not magnified
+    y = np.arange(p)
+    offset = np.linspace(-0.25, 0.25, len(others)) if len(others) > 1 else np.zeros(1)
+    ratios = []
     for k, label in enumerate(others):
         ratio = widths[label].to_numpy(dtype=float) / ref
-        # bars grow from 1: up for outer bounds (looser than exact), down for inner ones
-        bars = ax.bar(x - 0.4 + (k + 0.5) * step, ratio - 1.0, bottom=1.0, width=step, color=color_for(label),
-                      label=label)
-        ax.bar_label(bars, labels=[f"{r:.3g}" for r in ratio], fontsize=6, padding=1)
-        extreme = max(extreme, float(np.nanmax(np.abs(np.log10(ratio)))))
-    ax.axhline(1.0, color=PALETTE["LP exact"], lw=1.0, ls="--", label=f"{reference} (= 1)")
-    ax.set_yscale("log")
-    ax.set_ylim(10 ** (-1.3 * extreme), 10 ** (1.3 * extreme))
-    ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
-    ax.yaxis.set_minor_formatter(FormatStrFormatter("%g") if extreme < 0.5 else NullFormatter())
-    ax.set_xticks(x, [str(i) for i in widths.index], rotation=30 if p > 6 else 0)
-    ax.set_ylabel(f"width / {reference} width")
-    ax.grid(axis="y", which="both", alpha=0.3)
-    fig.legend(loc="outside upper center", fontsize=8, ncols=min(len(others) + 1, 4), frameon=False)
+        ratios.append(ratio)
+        ax.plot(ratio, y + offset[k], ls="none", marker=_MARKERS[k % len(_MARKERS)], ms=6, color=color_for(label),
+                markeredgecolor="white", markeredgewidth=0.5, label=label)
+    ax.axvline(1.0, color=PALETTE["LP exact"], lw=1.0, ls="--", label=f"{reference} (= 1)")
+    ax.set_xscale("log")
+    finite = np.concatenate(ratios)
+    finite = finite[np.isfinite(finite) & (finite > 0)]
+    lo, hi = (min(0.8, finite.min() / 1.3), max(1.25, finite.max() * 1.3)) if finite.size else (0.5, 2.0)
+    ax.set_xlim(lo, hi)
+    ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.set_yticks(y, [str(i) for i in widths.index])
+    ax.invert_yaxis()
+    ax.tick_params(labelsize=9)
+    ax.set_xlabel(f"width / {reference} width (log scale)", fontsize=10)
+    ax.grid(axis="x", which="both", alpha=0.3)
+    ax.grid(axis="y", alpha=0.15)
+    fig.legend(loc="outside upper center", fontsize=9, ncols=min(len(others) + 1, 4), frameon=False)
     return fig
 
 
