@@ -144,12 +144,12 @@ def test_shrank_says_whether_the_data_told_more_than_the_prior():
 
 
 def test_drift_tells_convergence_from_oscillation():
-    """Closed forms: 1 - exp(-t / 0.05) settles (drift over the last half ~ exp(-10) < 5 %);
-    sin(2 pi t) never does (drift 2 over any half period or more)."""
+    """Closed forms on t in [0, 1]: 1 - exp(-t / 0.05) settles (drift over the last quarter
+    (exp(-15) - exp(-20)) / (1 - exp(-20))); sin(2 pi t) does not (it spans 1 over the last quarter)."""
     t = np.linspace(0.0, 1.0, 1001)
     centers = np.column_stack([1.0 - np.exp(-t / 0.05), np.sin(2 * np.pi * t) + 0.0])
     d = drift(History(np.arange(t.size), centers, np.zeros(t.size)))
-    assert d[0] == pytest.approx(np.exp(-10.0) - np.exp(-20.0), rel=1e-6)
+    assert d[0] == pytest.approx((np.exp(-15.0) - np.exp(-20.0)) / (1.0 - np.exp(-20.0)), rel=1e-6)
     assert d[1] > 1.0
 
 

@@ -332,6 +332,9 @@ def projection_2d(
     centers : {label: (2,)} or None, the estimates' centres on the pair, marked with a dot.
     truth_2d : (2,) or None, marked with a star.
     box : (lo (2,), hi (2,)) or None, e.g. the exact LP bounds of the pair, drawn dashed.
+
+    The limits hold every set but John's ellipsoid (which may run past the frame); equal aspect
+    where both parameters have the same unit and comparable spans (within 4:1).
     """
     fig = Figure(figsize=(6.0, 4.0), dpi=DPI, layout="constrained")
     ax = fig.subplots()
@@ -358,7 +361,22 @@ def projection_2d(
         if tr.shape != (2,):
             raise InputError(f"truth_2d must be (2,), got shape {tr.shape}.")
         ax.plot(*tr, "*", color=PALETTE["truth"], ms=10, label="truth")
-    ax.autoscale_view()
+    framed = [S.boundary(240) for label, S in sets.items() if not _frame_exempt(label)]
+    framed += [polytope.boundary()] if polytope is not None else []
+    framed += [np.array([lo, hi])] if box is not None else []
+    framed += [np.asarray(truth_2d, dtype=float)[None, :]] if truth_2d is not None else []
+    if framed:  # limits from the exact set and the estimates; John's ellipsoid (p x the inner) may run past
+        pts = np.vstack(framed)
+        lo2, hi2 = pts.min(axis=0), pts.max(axis=0)
+        pad = 0.06 * np.where(hi2 > lo2, hi2 - lo2, np.maximum(np.abs(hi2), 1.0))
+        ax.set_xlim(lo2[0] - pad[0], hi2[0] + pad[0])
+        ax.set_ylim(lo2[1] - pad[1], hi2[1] + pad[1])
+        span = hi2 - lo2
+        same_units = units is not None and units[0] == units[1]
+        if same_units and span.min() > 0 and span.max() / span.min() <= 4.0:
+            ax.set_aspect("equal", adjustable="datalim")
+    else:
+        ax.autoscale_view()
     ax.set_xlabel(_label(names[0], units[0] if units is not None else None))
     ax.set_ylabel(_label(names[1], units[1] if units is not None else None))
     ax.grid(alpha=0.3)
@@ -367,6 +385,11 @@ def projection_2d(
 
 
 _MARKERS = ("o", "s", "D", "^", "v", "P", "X", "<", ">", "h")
+
+
+def _frame_exempt(label: str) -> bool:
+    """Sets that do not set a projection's limits: John's outer ellipsoid, always the widest."""
+    return "john" in label.lower()
 
 
 def width_ratios(widths, reference: str = "LP exact") -> Figure:

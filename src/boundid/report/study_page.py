@@ -325,7 +325,7 @@ def _exact_section(page: Page, r: StudyResult, guard: _Guard) -> None:
         with guard("figure", "log volumes"):
             page.figure(F.log_volume_bars(logv), "ln volume per dimension of the guaranteed sets and the SDP "
                         "ellipsoids (the inner ellipsoid is a lower bound on any outer set).", name="log_volumes")
-    rows = {lab: certificate_row(cert) for lab, cert in ex.certificates.items()}
+    rows = {lab: {k: _cell(v) for k, v in certificate_row(cert).items()} for lab, cert in ex.certificates.items()}
     if rows:
         cert = pd.DataFrame.from_dict(rows, orient="index").rename_axis("estimate")
         page.table(cert.T.rename_axis("certificate"),
@@ -353,7 +353,8 @@ def _exact_section(page: Page, r: StudyResult, guard: _Guard) -> None:
             page.figure(F.projection_2d(shadow, shadows, truth[0][idx] if truth is not None else None, box, (a, b),
                                         centers=centers, units=[m.param_units[i] for i in idx]),
                         f"Projection on ({a}, {b}): exact polytope shadow (grey), LP box (dashed), the sets' "
-                        "shadows" + (f", {truth[1]} (star)." if truth is not None else "."),
+                        "shadows" + (f", {truth[1]} (star)" if truth is not None else "") + "; John's ellipsoid "
+                        "may run past the frame.",
                         name=f"projection_{a}_{b}")
 
 
@@ -416,6 +417,9 @@ def findings(r: StudyResult, verdicts: list[Claim], failures: list[Failure]) -> 
         out["OBE breakdown rate"] = ", ".join(
             f"{lab.split(' / ')[0]} {sum(x is not None for x in o)} of {len(o)} noise seeds"
             for lab, o in sweep.outcomes.items())
+    elif any(e.method.startswith("OBE") for e in r.estimates.values()):
+        out["OBE breakdown rate"] = ("not measured: a noise-seed sweep of a closed-loop experiment re-runs the "
+                                     "control loop; this run's OBE outcomes may differ between machines")
     out["failures"] = "none" if not failures else f"{len(failures)}, listed in the last section"
     return out
 
@@ -426,8 +430,9 @@ def _verdict_section(page: Page, r: StudyResult, verdicts: list[Claim]) -> None:
                  f"One row per claim of the {paper} (docs/references.md): the paper's figure is its claim; ours is "
                  "computed by this run, and so is the verdict.")
     df = pd.DataFrame([c.__dict__ for c in verdicts]).set_index("claim")
-    df = df[["verdict", "paper", "ours", "reason"]]
-    page.table(df, "Paper claims, our figures and the verdicts.", name="reproduction", float_format="{:.3g}")
+    page.table(df[["verdict", "paper", "ours"]], "Paper claims, our figures and the verdicts; the reason for each "
+               "verdict, from the run, is listed below the table.", name="reproduction")
+    page.text("\n\n".join(f"{c.claim} — {c.verdict}: {c.reason}." for c in verdicts))
 
 
 def _two_truths_section(page: Page, r: StudyResult) -> None:
@@ -464,6 +469,15 @@ def _two_truths_section(page: Page, r: StudyResult) -> None:
     page.table(df, "The two truths (SI units).", float_format="{:.4g}", name="two_truths")
 
 
+def _cell(v) -> str:
+    """A table cell as text: floats to 4 significant digits, booleans yes/no."""
+    if isinstance(v, bool | np.bool_):
+        return _yes(v)
+    if isinstance(v, float | np.floating):
+        return "–" if np.isnan(v) else f"{v:.4g}"
+    return str(v)
+
+
 def _yes(b) -> str:
     return "yes" if bool(b) else "no"
 
@@ -480,6 +494,26 @@ def _truth(r: StudyResult) -> tuple[np.ndarray, str] | None:
     return np.array([float(ref.get(n, np.nan)) for n in r.model.param_names]), "reference values (study file)"
 
 
+def _headline(r: StudyResult, verdicts: list[Claim]) -> str:
+    """One sentence under the title: the bound at the truth, the guarantee, the paper verdicts."""
+    ex, parts = r.exact, []
+    if ex is not None and _truth(r) is not None and np.isfinite(ex.truth_error_ratio):
+        parts.append("The error bound holds at the truth" if ex.truth_violations == 0 else
+                     f"The error bound is broken at the truth on {ex.truth_violations} rows")
+    certs = [ex.certificates[lab] for lab in _guaranteed_sets(r) if lab in ex.certificates] if ex else []
+    if certs:
+        parts.append("every guaranteed set contains the exact polytope" if all(c.contains_polytope for c in certs)
+                     else "a guaranteed set MISSES part of the exact polytope")
+    if verdicts:
+        n = {v: sum(c.verdict == v for c in verdicts) for v in VERDICTS}
+        parts.append(f"{n['reproduced']} of {len(verdicts)} paper claims reproduced"
+                     + "".join(f", {k} {v}" for v, k in n.items() if k and v != "reproduced"))
+    if not parts:
+        return ""
+    text = "; ".join(parts) + "."
+    return text[0].upper() + text[1:]
+
+
 def study_page(r: StudyResult) -> Page:
     """Build the page of ``r`` (nothing written): the findings box under the title, "Does it
     reproduce?", the set-up, then the paper's tables and the rest. A section, figure or projection
@@ -491,9 +525,7 @@ def study_page(r: StudyResult) -> Page:
     with guard("section", "paper verdicts"):
         verdicts = claims(r)
     box = findings(r, verdicts, failures)
-    headline = (f"{box.get('bound at the truth', '').split(':')[0] or 'no exact optimum'} bound at the truth; "
-                f"paper claims: {box['paper claims'].replace(' (table below)', '')}." if verdicts else
-                "Findings of the run below.")
+    headline = _headline(r, verdicts)
     page = Page(cfg.title, headline, setup=box)
     if verdicts:
         _verdict_section(page, r, verdicts)
