@@ -485,5 +485,5 @@ def volume_history(histories: Mapping[str, object], t=None, *, max_points: int =
     ax.set_xlabel("time [s]" if t is not None else "sample")
     ax.set_ylabel("ln(volume)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    fig.legend(loc="outside upper center", fontsize=8, ncols=min(drawn, 4), frameon=False)
     return fig
