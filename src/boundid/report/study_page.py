@@ -428,8 +428,8 @@ def findings(r: StudyResult, verdicts: list[Claim], failures: list[Failure]) -> 
                 f"yes, all {len(certs)}" if not miss else f"NO: {', '.join(miss)} (of {len(certs)})")
             comparison = set_comparison(r)
             clipped = comparison[0]["mean width / exact"] if comparison is not None else {}
-            out["OBE mean width / exact width"] = ", ".join(
-                (f"{lab} {clipped[lab]:.3g} x within the prior box (raw set " if lab in clipped else f"{lab} (")
+            out["OBE mean width / exact width (∩ prior box)"] = ", ".join(
+                (f"{lab} {clipped[lab]:.3g} x (raw set " if lab in clipped else f"{lab} (raw set ")
                 + f"{float(np.mean(c.width_ratio)):.3g} x)" for lab, c in certs.items())
     if verdicts:
         counts = {v: sum(c.verdict == v for c in verdicts) for v in VERDICTS}
