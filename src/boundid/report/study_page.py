@@ -249,7 +249,8 @@ def numbers_stored(S) -> int:
 
 def set_comparison(r: StudyResult) -> tuple[pd.DataFrame, pd.DataFrame] | None:
     """Every set estimate on the exact regression (any ConvexSet family) and the SDP ellipsoids against
-    the exact LP interval: (summary, per-parameter width / exact width of the intervals ∩ prior box)."""
+    the exact LP interval: (summary, per-parameter width / exact width of the intervals ∩ prior box);
+    None without LP bounds or without any set."""
     ex = r.exact
     if ex is None or ex.bounds is None:
         return None
@@ -258,6 +259,8 @@ def set_comparison(r: StudyResult) -> tuple[pd.DataFrame, pd.DataFrame] | None:
     sets = {_tag(lab, e): e for lab, e in _guaranteed_sets(r).items()}
     entries = {lab: (e.set, e.intervals, e.time_s / max(e.n_samples, 1), e) for lab, e in sets.items()}
     entries.update({f"SDP {k}": (v.ellipsoid, v.ellipsoid.intervals(), np.nan, None) for k, v in ex.sdp.items()})
+    if not entries:
+        return None
     rows, ratios = {}, {}
     for lab, (S, (lo, hi), per_sample, e) in entries.items():
         clo, chi = np.maximum(lo, box[0]), np.minimum(hi, box[1])
