@@ -199,15 +199,17 @@ def test_projection_2d_draws_the_polygon_and_the_set_boundaries():
         projection_2d(None, {"3-D": Ellipsoid.ball(np.zeros(3), 1.0)})
 
 
-def test_width_ratios_bars_are_width_over_exact_width():
-    """Reference: hand-computed ratios 1.5, 2 (outer) and 0.5 (inner) of given widths."""
+def test_width_ratios_dots_are_width_over_exact_width():
+    """Reference: hand-computed ratios 1.5, 2 (outer) and 0.5 (inner) of given widths: one dot per
+    estimate and parameter, at x = ratio on a log axis; the reference is the line at 1."""
     df = pd.DataFrame({"LP exact": [2.0, 1.0], "OBE-factorized": [3.0, 2.0], "John": [1.0, 0.5]},
                       index=pd.Index(["a", "b"], name="parameter"))
     fig = width_ratios(df)
     ax = fig.axes[0]
-    assert len(fig.axes) == 1 and ax.get_yscale() == "log"
-    tops = [r.get_y() + r.get_height() for r in ax.patches]
-    np.testing.assert_allclose(tops, [1.5, 2.0, 0.5, 0.5])
+    assert len(fig.axes) == 1 and ax.get_xscale() == "log"
+    dots = {ln.get_label(): ln.get_xdata() for ln in ax.lines if ln.get_linestyle() == "None"}
+    np.testing.assert_allclose(dots["OBE-factorized"], [1.5, 2.0])
+    np.testing.assert_allclose(dots["John"], [0.5, 0.5])
     with pytest.raises(InputError, match="reference"):
         width_ratios(df.drop(columns="LP exact"))
 

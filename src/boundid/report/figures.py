@@ -331,6 +331,9 @@ def projection_2d(
     centers : {label: (2,)} or None, the estimates' centres on the pair, marked with a dot.
     truth_2d : (2,) or None, marked with a star.
     box : (lo (2,), hi (2,)) or None, e.g. the exact LP bounds of the pair, drawn dashed.
+
+    The limits hold every set but John's ellipsoid (which may run past the frame); equal aspect
+    where both parameters have the same unit and comparable spans (within 4:1).
     """
     fig = Figure(figsize=(6.0, 4.0), dpi=DPI, layout="constrained")
     ax = fig.subplots()
@@ -357,7 +360,22 @@ def projection_2d(
         if tr.shape != (2,):
             raise InputError(f"truth_2d must be (2,), got shape {tr.shape}.")
         ax.plot(*tr, "*", color=PALETTE["truth"], ms=10, label="truth")
-    ax.autoscale_view()
+    framed = [S.boundary(240) for label, S in sets.items() if not _frame_exempt(label)]
+    framed += [polytope.boundary()] if polytope is not None else []
+    framed += [np.array([lo, hi])] if box is not None else []
+    framed += [np.asarray(truth_2d, dtype=float)[None, :]] if truth_2d is not None else []
+    if framed:  # limits from the exact set and the estimates; John's ellipsoid (p x the inner) may run past
+        pts = np.vstack(framed)
+        lo2, hi2 = pts.min(axis=0), pts.max(axis=0)
+        pad = 0.06 * np.where(hi2 > lo2, hi2 - lo2, np.maximum(np.abs(hi2), 1.0))
+        ax.set_xlim(lo2[0] - pad[0], hi2[0] + pad[0])
+        ax.set_ylim(lo2[1] - pad[1], hi2[1] + pad[1])
+        span = hi2 - lo2
+        same_units = units is not None and units[0] == units[1]
+        if same_units and span.min() > 0 and span.max() / span.min() <= 4.0:
+            ax.set_aspect("equal", adjustable="box")
+    else:
+        ax.autoscale_view()
     ax.set_xlabel(_label(names[0], units[0] if units is not None else None))
     ax.set_ylabel(_label(names[1], units[1] if units is not None else None))
     ax.grid(alpha=0.3)
@@ -365,8 +383,17 @@ def projection_2d(
     return fig
 
 
+_MARKERS = ("o", "s", "D", "^", "v", "P", "X", "<", ">", "h")
+
+
+def _frame_exempt(label: str) -> bool:
+    """Sets that do not set a projection's limits: John's outer ellipsoid, always the widest."""
+    return "john" in label.lower()
+
+
 def width_ratios(widths, reference: str = "LP exact") -> Figure:
-    """Per-parameter interval width of each set estimate over the exact LP width (log scale).
+    """Per-parameter interval width of each set estimate over the exact LP width: a dot plot, one
+    row per parameter, one dot per estimate on a log axis (the reference is the line at 1).
 
     widths : DataFrame, one row per parameter (index = names), one column per estimate, holding
         interval widths hi - lo; column ``reference`` holds the exact LP widths. Ratios > 1 are
@@ -381,27 +408,31 @@ def width_ratios(widths, reference: str = "LP exact") -> Figure:
     if not others:
         raise InputError("width_ratios needs at least one estimate column besides the reference.")
     p = len(widths.index)
-    fig = Figure(figsize=(max(4.5, 0.9 * p + 1.5), 3.4), dpi=DPI, layout="constrained")
+    fig = Figure(figsize=(8.5, 0.32 * p + 1.6), dpi=DPI, layout="constrained")
     ax = fig.subplots()
-    step = 0.8 / len(others)
-    x = np.arange(p)
-    extreme = 0.1  # |log10 ratio| shown at least, so ratios near 1 are not magnified
+    y = np.arange(p)
+    offset = np.linspace(-0.25, 0.25, len(others)) if len(others) > 1 else np.zeros(1)
+    ratios = []
     for k, label in enumerate(others):
         ratio = widths[label].to_numpy(dtype=float) / ref
-        # bars grow from 1: up for outer bounds (looser than exact), down for inner ones
-        bars = ax.bar(x - 0.4 + (k + 0.5) * step, ratio - 1.0, bottom=1.0, width=step, color=color_for(label),
-                      label=label)
-        ax.bar_label(bars, labels=[f"{r:.3g}" for r in ratio], fontsize=6, padding=1)
-        extreme = max(extreme, float(np.nanmax(np.abs(np.log10(ratio)))))
-    ax.axhline(1.0, color=PALETTE["LP exact"], lw=1.0, ls="--", label=f"{reference} (= 1)")
-    ax.set_yscale("log")
-    ax.set_ylim(10 ** (-1.3 * extreme), 10 ** (1.3 * extreme))
-    ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
-    ax.yaxis.set_minor_formatter(FormatStrFormatter("%g") if extreme < 0.5 else NullFormatter())
-    ax.set_xticks(x, [str(i) for i in widths.index], rotation=30 if p > 6 else 0)
-    ax.set_ylabel(f"width / {reference} width")
-    ax.grid(axis="y", which="both", alpha=0.3)
-    fig.legend(loc="outside upper center", fontsize=8, ncols=min(len(others) + 1, 4), frameon=False)
+        ratios.append(ratio)
+        ax.plot(ratio, y + offset[k], ls="none", marker=_MARKERS[k % len(_MARKERS)], ms=6, color=color_for(label),
+                markeredgecolor="white", markeredgewidth=0.5, label=label)
+    ax.axvline(1.0, color=PALETTE["LP exact"], lw=1.0, ls="--", label=f"{reference} (= 1)")
+    ax.set_xscale("log")
+    finite = np.concatenate(ratios)
+    finite = finite[np.isfinite(finite) & (finite > 0)]
+    lo, hi = (min(0.8, finite.min() / 1.3), max(1.25, finite.max() * 1.3)) if finite.size else (0.5, 2.0)
+    ax.set_xlim(lo, hi)
+    ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.set_yticks(y, [str(i) for i in widths.index])
+    ax.invert_yaxis()
+    ax.tick_params(labelsize=9)
+    ax.set_xlabel(f"width / {reference} width (log scale)", fontsize=10)
+    ax.grid(axis="x", which="both", alpha=0.3)
+    ax.grid(axis="y", alpha=0.15)
+    fig.legend(loc="outside upper center", fontsize=9, ncols=min(len(others) + 1, 4), frameon=False)
     return fig
 
 
@@ -453,5 +484,5 @@ def volume_history(histories: Mapping[str, object], t=None, *, max_points: int =
     ax.set_xlabel("time [s]" if t is not None else "sample")
     ax.set_ylabel("ln(volume)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    fig.legend(loc="outside upper center", fontsize=8, ncols=min(drawn, 4), frameon=False)
     return fig
