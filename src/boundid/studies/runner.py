@@ -9,16 +9,15 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 
-from boundid.errors import RUN_FAILURES, StudyError
+from boundid.errors import RUN_FAILURES
 from boundid.estimators import Estimate
 from boundid.estimators.certify import validate
-from boundid.estimators.method import Problem
-from boundid.estimators.registry import METHODS
 from boundid.experiments.regression import Regression
 from boundid.models import RobotModel
-from boundid.sets import Box, Polytope, SDPResult, inner_ellipsoid, john_outer, outer_ellipsoid
-from boundid.studies.config import EstimatorConfig, PriorConfig, StudyConfig
+from boundid.sets import Polytope, SDPResult, inner_ellipsoid, john_outer, outer_ellipsoid
+from boundid.studies.config import StudyConfig
 from boundid.studies.data import StudyData, acquire
+from boundid.studies.estimation import prior_box, run_estimator
 from boundid.studies.physical_stage import PhysicalResult, physical_stage
 from boundid.studies.progress import QUIET, Progress
 from boundid.studies.registry import make_robot
@@ -26,39 +25,6 @@ from boundid.studies.regressions import build_regressions
 from boundid.studies.validation import validate_study
 
 # ------------------------------------------------------------------------------ estimators
-
-
-def prior_box(model: RobotModel, prior: PriorConfig) -> tuple[np.ndarray, np.ndarray]:
-    """The prior box (center, half_width), each (p,)."""
-    known = np.isfinite(model.theta_prior) & (model.theta_prior != 0)
-    if prior.center == "model":
-        center = np.where(np.isfinite(model.theta_prior), model.theta_prior, 0.0)
-        half = np.where(known, prior.relative_range * np.abs(center), prior.absolute_range)
-    else:
-        center = np.zeros(model.p)
-        half = np.full(model.p, prior.absolute_range)
-    return center, half
-
-
-def estimation_problem(ec: EstimatorConfig, reg: Regression, model: RobotModel, prior: PriorConfig) -> Problem:
-    """The regression as the estimator registry sees it: rows grouped by joint, the study's prior
-    box, the estimator's bound e_max, a history of at most ~2000 records."""
-    return Problem(W=reg.W, y=reg.y, groups=reg.joint, names=model.param_names, unit=reg.unit,
-                   prior=Box.from_center(*prior_box(model, prior)), e_max=ec.e_max,
-                   record_every=max(1, reg.n_rows // 2000))
-
-
-def run_estimator(ec: EstimatorConfig, reg: Regression, model: RobotModel, prior: PriorConfig) -> Estimate:
-    """One registered estimator (:data:`boundid.estimators.registry.METHODS`) on one regression."""
-    method = METHODS[ec.method]
-    if method.needs_bound and ec.e_max is None:
-        raise StudyError(f"estimator {ec.label!r}: e_max (the bound on |y - w^T theta|, in {reg.unit}) is required "
-                         f"by the {ec.method} method.")
-    t0 = time.perf_counter()
-    est = method.run(estimation_problem(ec, reg, model, prior), ec.options)
-    if not np.isfinite(est.time_s):
-        est.time_s = time.perf_counter() - t0
-    return est
 
 
 # ------------------------------------------------------------------------------ exact optima

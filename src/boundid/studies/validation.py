@@ -163,7 +163,8 @@ def obe_breakdown_sweep(cfg: StudyConfig, model: RobotModel, data: StudyData, n_
     not an open-loop simulation (a closed-loop sweep would re-run the whole control loop)."""
     from boundid.experiments.recording import Recording
     from boundid.experiments.simulation import measure
-    from boundid.studies.runner import build_regressions, run_estimator
+    from boundid.studies.estimation import run_estimator
+    from boundid.studies.regressions import build_regressions
 
     exp = cfg.experiment
     obes = [ec for ec in cfg.estimators if ec.method == "obe"]
