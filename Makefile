@@ -27,7 +27,7 @@ lint: $(STAMP)
 	$(BIN)/ruff check src tests studies/teaching
 
 bench: $(STAMP)
-	$(BIN)/python -m boundid.bench --out reports/benchmarks
+	$(BIN)/boundid bench
 
 report: $(STAMP)
 	$(BIN)/boundid report
