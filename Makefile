@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed-stamp
 THREADS := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 NUMBA_NUM_THREADS=1
 PYTEST := $(THREADS) $(BIN)/pytest -n 2 -q
 
-.PHONY: install test test-all bench report lint teach campaign test-browser clean
+.PHONY: install test test-all bench report lint teach campaign test-browser docs clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -24,7 +24,7 @@ test-all: $(STAMP)
 	$(PYTEST) -m "not browser"
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests studies/teaching
+	$(BIN)/ruff check src tests studies/teaching studies/examples
 
 bench: $(STAMP)
 	$(BIN)/boundid bench
@@ -35,6 +35,10 @@ report: $(STAMP)
 # Monte Carlo campaign of the direct-drive study: 20 replicates of each noise scenario (resumable)
 campaign: $(STAMP)
 	$(BIN)/boundid campaign studies/direct_drive_rls.toml --replicates 20 --workers 2
+
+# docs/study-files.md, every study-file key, generated from the study-file parser (tests/test_docs.py checks it)
+docs: $(STAMP)
+	$(BIN)/python -m boundid.docs --out docs/study-files.md
 
 # the lessons in studies/teaching, one self-contained handout each in reports/teaching/
 teach: $(STAMP)

@@ -174,10 +174,15 @@ def campaign_page(result: CampaignResult) -> Page:
              "time per replicate": f"{reps['replicate_time_s'].mean():.3g} s (mean, one worker)",
              "this run": f"{len(result.computed)} computed, {len(result.skipped)} already done, "
                          f"{result.elapsed_s:.1f} s with {result.workers or 'no'} Dask workers"}
-    descr = "\n\n".join(f"{sc.name}: {sc.description or 'the study as written'}" for sc in result.scenarios)
+    n_reps = reps.groupby("scenario", sort=False).size()
+    descr = (f"Monte Carlo campaign of the study {cfg.name}: every estimator on fresh noise in each replicate, "
+             f"{n_reps.min()}" + (f"-{n_reps.max()}" if n_reps.max() != n_reps.min() else "")
+             + f" replicates of each of {len(result.scenarios)} scenarios ("
+             + ", ".join(sc.name for sc in result.scenarios) + "); the scenarios and the set-up are described in "
+             "the last section.")
     study_page = Path(result.out).parent / "index.html"
-    trail = [(cfg.title, "../index.html")] if study_page.is_file() else []
-    page = Page(f"Monte Carlo campaign: {cfg.title}", descr, setup=setup, home="../../index.html", trail=trail)
+    trail = [(f"study {cfg.name}", "../index.html")] if study_page.is_file() else []
+    page = Page(f"Monte Carlo campaign: {cfg.title}", descr, home="../../index.html", trail=trail)
     page.attach("data/", "data/", f"the replicate files (Parquet), one per scenario and replicate ({DATA_DIR}/)")
     sentences, attention = findings(summary, table)
     page.findings(sentences, attention=attention)
@@ -242,6 +247,10 @@ def campaign_page(result: CampaignResult) -> Page:
                    "Failures grouped by message (one example message per group).", name="failure_groups")
         page.table(_keyed(fails, ["scenario", "replicate", "estimator", "regression"])[["failure"]],
                    "Failed estimator runs.", name="failures")
+    page.section("Scenarios and set-up", folded="The scenarios, the study and this run",
+                 text="\n\n".join(f"{sc.name}: {sc.description or 'the study as written'}" for sc in result.scenarios))
+    page.table(pd.DataFrame({"value": list(setup.values())}, index=pd.Index(list(setup), name="set-up")),
+               "Set-up of the campaign.", name="setup")
     return page
 
 
