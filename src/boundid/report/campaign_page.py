@@ -25,6 +25,7 @@ from boundid.report.output import replace_folder
 from boundid.studies.campaign import DATA_DIR, CampaignResult, parameter_errors, summarize
 
 KEYS = ["scenario", "estimator", "regression"]
+MAX_SCENARIOS_PER_TABLE = 4  # the opening table's columns: more scenarios continue in a second table
 _HATCHES = (None, "//", "..", "xx")  # one per regression model; the colour is the estimator's
 
 
@@ -79,7 +80,9 @@ def coverage_shown(row) -> float:
 
 def overview(summary: pd.DataFrame) -> pd.DataFrame:
     """The page's opening table: one row per estimator, one column per scenario, each cell
-    "coverage · failure rate · width / exact" (text; the numbers are in the folded tables)."""
+    "coverage · failure rate · width / exact" (text; the numbers are in the folded tables); "no
+    result" where the scenario has no row of that estimator (the exact LP bounds of data that
+    contradict the bound)."""
     s = summary.assign(row=_row_label(summary))
     cells = {}
     for _, r in s.iterrows():
@@ -87,7 +90,7 @@ def overview(summary: pd.DataFrame) -> pd.DataFrame:
         width = "–" if not np.isfinite(r["width_ratio_median"]) else f"{r['width_ratio_median']:.3g}"
         cells[(r["row"], r["scenario"])] = f"{_pct(coverage_shown(r))} · {_pct(fail)} · {width}"
     rows, cols = list(dict.fromkeys(s["row"])), list(dict.fromkeys(s["scenario"]))
-    df = pd.DataFrame([[cells.get((r, c), "") for c in cols] for r in rows], index=pd.Index(rows, name="estimator"),
+    df = pd.DataFrame([[cells.get((r, c), "no result") for c in cols] for r in rows], index=pd.Index(rows, name="estimator"),
                       columns=cols)
     return df
 
@@ -115,9 +118,6 @@ def findings(summary: pd.DataFrame, table: pd.DataFrame) -> tuple[list[str], boo
     """The sentences of the findings box, computed from the summary and the replicate table, and
     whether they report a problem (a guaranteed set that missed the truth although its bound held)."""
     out, attention = [], False
-    n_runs = table.drop_duplicates(["scenario", "replicate"]).groupby("scenario", sort=False).size()
-    out.append(f"{int(n_runs.sum())} replicates over {len(n_runs)} scenario(s) "
-               f"({', '.join(f'{k}: {v}' for k, v in n_runs.items())}).")
     g = summary[summary["kind"] == "guaranteed"]
     if len(g):
         held = g["coverage_bound_held_pct"]
@@ -187,14 +187,19 @@ def campaign_page(result: CampaignResult) -> Page:
     sentences, attention = findings(summary, table)
     page.findings(sentences, attention=attention)
 
-    page.section("Summary", "Each cell: coverage of the truth · failure rate · median width over the exact LP width. "
-                            "Coverage is the share of per-parameter intervals lo <= truth <= hi: for a guaranteed "
-                            "set over the replicates whose equation errors respected its bound (anything below 100 % "
-                            "is a bug), for a confidence set over all replicates (to be read against its nominal "
-                            "level). Failure rate: share of the replicates where the estimator failed. Width: 1 is "
-                            "the exact feasible set; below 1 only a confidence set can be.")
-    page.table(overview(summary), "Coverage · failure rate · width / exact, per estimator and scenario.",
-               name="overview")
+    page.section("Summary")
+    table1 = overview(summary)
+    for k in range(0, table1.shape[1], MAX_SCENARIOS_PER_TABLE):  # at most 4 scenarios side by side: no scrolling
+        part = table1.iloc[:, k:k + MAX_SCENARIOS_PER_TABLE]
+        split = table1.shape[1] > part.shape[1]
+        more = f" (scenarios {k + 1}-{k + part.shape[1]} of {table1.shape[1]})" if split else ""
+        page.table(part, "Each cell: coverage of the truth · failure rate · median width / exact LP width" + more
+                   + ".", name="overview" + (f"-{k // MAX_SCENARIOS_PER_TABLE + 1}" if more else ""))
+    page.text("Coverage is the share of per-parameter intervals lo <= truth <= hi: for a guaranteed set over the "
+              "replicates whose equation errors respected its bound (anything below 100 % is a bug), for a "
+              "confidence set over all replicates (to be read against its nominal level). Failure rate: share of "
+              "the replicates where the estimator failed. Width: 1 is the exact feasible set; below 1 only a "
+              "confidence set can be.")
 
     groups = failure_groups(table)
     if len(groups):
