@@ -90,9 +90,8 @@ def overview(summary: pd.DataFrame) -> pd.DataFrame:
         width = "–" if not np.isfinite(r["width_ratio_median"]) else f"{r['width_ratio_median']:.3g}"
         cells[(r["row"], r["scenario"])] = f"{_pct(coverage_shown(r))} · {_pct(fail)} · {width}"
     rows, cols = list(dict.fromkeys(s["row"])), list(dict.fromkeys(s["scenario"]))
-    df = pd.DataFrame([[cells.get((r, c), "no result") for c in cols] for r in rows], index=pd.Index(rows, name="estimator"),
-                      columns=cols)
-    return df
+    return pd.DataFrame([[cells.get((r, c), "no result") for c in cols] for r in rows],
+                        index=pd.Index(rows, name="estimator"), columns=cols)
 
 
 def _mask_numbers(message: str) -> str:
