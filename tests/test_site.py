@@ -148,3 +148,14 @@ def test_folded_section_and_findings_box(tmp_path):
     assert '<details class="fold"><summary>Show the details</summary>' in html
     with pytest.raises(InputError):
         Page("p").findings([])
+
+
+def test_bench_command_refreshes_the_site_index(tmp_path):
+    """`boundid bench --page-only` rebuilds the benchmark page from its CSVs and rewrites the site
+    index, which then links it."""
+    from boundid.cli import main
+
+    (tmp_path / "benchmarks").mkdir()
+    pd.DataFrame({"case": ["a"], "time_s": [1.0]}).to_csv(tmp_path / "benchmarks" / "toy.csv", index=False)
+    assert main(["bench", "--page-only", "--out", str(tmp_path)]) == 0
+    assert "benchmarks/index.html" in _links(tmp_path / "index.html").hrefs
