@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "studies" / "examples"
@@ -45,6 +46,7 @@ def test_committed_csv_is_what_the_script_makes(tmp_path):
     np.testing.assert_allclose(committed[["tau1_Nm", "tau2_Nm"]], made[["tau1_Nm", "tau2_Nm"]], rtol=0, atol=1e-6)
 
 
+@pytest.mark.slow  # a whole study, like the README's other `boundid run` lines (tests/test_readme.py)
 def test_a_user_copy_of_the_example_runs(tmp_path):
     """The README's command for the example, run in a folder outside the checkout that holds a copy
     of studies/examples/ (as a user who copied it): the closing verdict says the truth is unknown

@@ -29,7 +29,7 @@ from typing import Any
 from boundid.studies import schema
 from boundid.studies.schema import Section, describe_option
 
-MISSING = schema._MISSING  # the "required" marker of the Section look-ups
+MISSING = object()  # the probe's "no default given": the parser calls the look-up without one (required)
 
 #: one sentence per key (dotted path; "[]" marks an array of tables) and per table
 DESCRIPTIONS = {
