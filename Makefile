@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed-stamp
 THREADS := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 NUMBA_NUM_THREADS=1
 PYTEST := $(THREADS) $(BIN)/pytest -n 2 -q
 
-.PHONY: install test test-all bench report lint teach campaign test-browser mutation clean
+.PHONY: install test test-all bench report lint teach campaign test-browser mutation docs clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -24,12 +24,12 @@ test-all: $(STAMP)
 	$(PYTEST) -m "not browser"
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests studies/teaching
+	$(BIN)/ruff check src tests studies/teaching studies/examples
 
 bench: $(STAMP)
-	$(BIN)/python -m boundid.bench --out reports/benchmarks
+	$(BIN)/boundid bench
 
-# mutation testing (issue 13), not part of `make test`: cosmic-ray over a seeded sample of sets/, estimators/
+# mutation testing, not part of `make test`: cosmic-ray over a seeded sample of sets/, estimators/
 # and the regression builders (tools/mutation.toml), judged by each module's fast tests on 2 workers; resumes
 # an interrupted run; writes reports/benchmarks/mutation.md from the session databases (~40 min on 2 cores)
 mutation: $(STAMP)
@@ -42,6 +42,10 @@ report: $(STAMP)
 # Monte Carlo campaign of the direct-drive study: 20 replicates of each noise scenario (resumable)
 campaign: $(STAMP)
 	$(BIN)/boundid campaign studies/direct_drive_rls.toml --replicates 20 --workers 2
+
+# docs/study-files.md, every study-file key, generated from the study-file parser (tests/test_docs.py checks it)
+docs: $(STAMP)
+	$(BIN)/python -m boundid.docs --out docs/study-files.md
 
 # the lessons in studies/teaching, one self-contained handout each in reports/teaching/
 teach: $(STAMP)

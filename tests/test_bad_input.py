@@ -317,7 +317,7 @@ def test_killed_write_leaves_the_previous_page_whole(tmp_path):
     assert (half / "results.csv").is_file() and not (half / "index.html").exists()
     assert _cli(["run", study, "--out", str(out), "--quiet", "--seed", "11"]) == 0
     after = _tree(out / "dd")
-    assert sorted(p.name for p in out.iterdir()) == ["dd"]
+    assert sorted(p.name for p in out.iterdir()) == ["dd", "index.html"]  # the study and the site index
     assert after["campaign/data/r0.parquet"] == b"replicate"
     assert after["index.html"] != before["index.html"] and after["results.csv"] != before["results.csv"]
 

@@ -375,10 +375,13 @@ def test_write_index_links_every_study(study_page):
     """Reference: the written index parsed by html.parser: one link per study page, with the
     study page's own title read back from it."""
     root, _ = study_page
-    out = write_index(root)
+    out = write_index(root, home=None)
     parser = _PageParser()
     parser.feed(out.read_text())
     assert parser.urls == ["toy/index.html"]
+    parser = _PageParser()
+    parser.feed(write_index(root).read_text())  # a group index links back to the site index above it
+    assert parser.urls == ["../index.html", "toy/index.html"]
     assert "Toy study &lt;1&gt;" in out.read_text()
     assert "A toy set-up &amp; three parameters." in out.read_text()  # the page's meta description
     out = write_index(root, [("toy", "Given title", "toy/index.html")])

@@ -98,10 +98,22 @@ def _load_studies(paths, seed: int | None = None) -> list:
     return configs
 
 
-def _run_studies(configs, out: Path, quiet: bool) -> list[tuple[str, str, Path]]:
-    """Run each study and write its page to out/<name>/; (name, title, page) of each."""
+def _refresh_index(out: Path, quiet: bool = True) -> Path:
+    """Rewrite the site index ``<out>/index.html`` from every page under ``out`` (studies, campaigns,
+    lessons, benchmarks), so each command that writes a page leaves an index that links it."""
+    from boundid.report.html import write_site_index
+
+    index = write_site_index(out)
+    if not quiet:
+        print(f"index: {index}")
+    return index
+
+
+def _run_studies(configs, out: Path, quiet: bool) -> list[tuple[str, Path, str]]:
+    """Run each study and write its page to out/<name>/; (name, page, closing verdict line) of each."""
     from boundid.report.output import check_out_dir
     from boundid.report.study_page import write_study_report
+    from boundid.report.verdict import run_verdict
     from boundid.studies.runner import run_study
 
     check_out_dir(out, tuple(cfg.name for cfg in configs))
@@ -109,27 +121,32 @@ def _run_studies(configs, out: Path, quiet: bool) -> list[tuple[str, str, Path]]
     with _progress(quiet) as progress:
         for cfg in configs:
             result = run_study(cfg, progress=progress)
-            written.append((cfg.name, cfg.title, write_study_report(result, out / cfg.name)))
+            written.append((cfg.name, write_study_report(result, out / cfg.name), run_verdict(result).line))
     return written
 
 
 def cmd_run(args) -> int:
-    for name, _, page in _run_studies(_load_studies(args.study, args.seed), Path(args.out), args.quiet):
-        if not args.quiet:
+    """Run the studies; print each page, then, last, one verdict line per study (printed even with
+    --quiet: bound at the truth, guarantees verified, failures)."""
+    out = Path(args.out)
+    written = _run_studies(_load_studies(args.study, args.seed), out, args.quiet)
+    _refresh_index(out)
+    if not args.quiet:
+        for name, page, _ in written:
             print(f"{name}: {page}")
+    for _, _, verdict in written:
+        print(verdict)
     return 0
 
 
 def cmd_report(args) -> int:
-    from boundid.report.html import write_index
-
     folder = find_folder("studies", "*.toml", args.studies, what="study files", option="--studies")
     studies = sorted(folder.glob("*.toml"))
     out = Path(args.out)
     written = _run_studies(_load_studies(studies), out, args.quiet)
-    index = write_index(out, [(name, title, page.relative_to(out)) for name, title, page in written])
-    if not args.quiet:
-        print(f"index: {index}")
+    _refresh_index(out, args.quiet)
+    for _, _, verdict in written:
+        print(verdict)
     return 0
 
 
@@ -153,6 +170,7 @@ def cmd_campaign(args) -> int:
     for path, reason in result.set_aside:
         print(f"boundid: warning: {reason}; moved to {path} and computed again.", file=sys.stderr)
     page = write_campaign_page(result)
+    _refresh_index(Path(args.out))
     if not args.quiet:
         print(f"{cfg.name}: {len(result.computed)} replicates computed, {len(result.skipped)} already done "
               f"({result.elapsed_s:.1f} s); {page}")
@@ -162,8 +180,10 @@ def cmd_campaign(args) -> int:
 def cmd_bench(args) -> int:
     from boundid.bench.__main__ import main as bench_main
 
-    return bench_main(["--out", str(Path(args.out) / "benchmarks")] + (["--quick"] if args.quick else [])
+    code = bench_main(["--out", str(Path(args.out) / "benchmarks")] + (["--quick"] if args.quick else [])
                       + (["--page-only"] if args.page_only else []))
+    _refresh_index(Path(args.out))
+    return code
 
 
 def cmd_teach(args) -> int:
@@ -171,6 +191,7 @@ def cmd_teach(args) -> int:
 
     for page in run_lessons(args.lessons, Path(args.out) / "teaching", fast=args.fast, only=args.only or None):
         print(page)
+    print(f"index: {_refresh_index(Path(args.out))}")
     return 0
 
 

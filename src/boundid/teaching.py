@@ -294,6 +294,8 @@ class Handout(Page):
     csp = f"{Page.csp}; script-src 'sha256-{_STEPPER_HASH}'"
 
     def __init__(self, title: str, description: str = "", *, setup: Mapping[str, object] | None = None, **kwargs):
+        kwargs.setdefault("home", "../../index.html")  # a handout lives at reports/teaching/<lesson>/
+        kwargs.setdefault("trail", [("teaching kit", "../index.html")])
         super().__init__(title, description, **kwargs)
         self._key_points: _KeyPoints | None = None
         if setup:

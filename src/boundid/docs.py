@@ -1,0 +1,411 @@
+"""``python -m boundid.docs``: write ``docs/study-files.md``, every study-file key, from the parser.
+
+The study-file parser (:func:`boundid.studies.config.load_study` and
+:func:`boundid.studies.scenarios.load_campaign`) *is* the schema: it reads every key through a
+:class:`boundid.studies.schema.Section` typed look-up (``str`` with its choices, ``float`` with its
+range, ``options`` with a table of defaults ...). :func:`study_keys` runs that parser on a probe
+Section that answers every look-up with a valid value and records it (key, type, default,
+choices, range, required), once for each choice of every key that has choices, so that keys read
+only under one choice (``[experiment.measured]`` when ``source = "measured"``, an estimator's
+options under its ``method``) are found with that condition. Nothing else about the schema is
+written here: a new key appears in the document by itself, and needs only its sentence in
+:data:`DESCRIPTIONS` (the generator refuses a key without one, and a sentence for a key that
+is gone). ``tests/test_docs.py`` fails when the committed file differs from the generated one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import builtins
+import re
+import sys
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from boundid.studies import schema
+from boundid.studies.schema import Section, describe_option
+
+MISSING = object()  # the probe's "no default given": the parser calls the look-up without one (required)
+
+#: one sentence per key (dotted path; "[]" marks an array of tables) and per table
+DESCRIPTIONS = {
+    "regressions": "The regression models built from the data; each estimator picks among them.",
+    "study": "What the study is called and how its page introduces it.",
+    "study.name": "A plain name (letters, digits, _ and -): the report folder <out>/<name>/.",
+    "study.title": "The title of the study's page.",
+    "study.description": "The set-up in words, the first paragraphs of the page and its entry in the index.",
+    "study.seed": "The root of every random draw (noise, replicates): same seed, same numbers.",
+    "robot": "The robot model.",
+    "robot.model": "Which model (`boundid list` shows each with its parameters).",
+    "robot.options": "The model's own settings (its true physical values or geometry); each option's "
+                     "default is listed below.",
+    "experiment": "Where the data come from: a simulation of the robot, or a recording.",
+    "experiment.source": "\"simulate\" runs the robot model; \"measured\" reads the recording named in "
+                         "[experiment.measured].",
+    "experiment.measured": "The recording: a CSV or Parquet file with one row per sample.",
+    "experiment.measured.file": "Path of the recording, relative to the study file.",
+    "experiment.measured.columns": "The recording's column names.",
+    "experiment.measured.columns.time": "Time [s]; uniformly spaced (relative jitter below 1e-3), the "
+                                        "filters and differences assume one sample period.",
+    "experiment.measured.columns.q": "Joint positions [rad], one column per joint, in the model's joint order.",
+    "experiment.measured.columns.tau": "Joint torques [N m], one column per joint, as many as q.",
+    "experiment.control": "\"open_loop\": the direct-drive paper's torques (31)-(32); \"closed_loop\": PI "
+                          "control along a Fourier-series trajectory (the H4 experiment).",
+    "experiment.duration_s": "Length of the identification experiment [s].",
+    "experiment.sample_period_s": "Sample period h of the recording [s].",
+    "experiment.coulomb_width_rad_s": "Simulation only: tanh(qd / width) stands for sign(qd) [rad/s].",
+    "experiment.structural_error": "Scale of the robot behaviour the identification model leaves out "
+                                   "(closed loop; 0: none, 1: the simulated robot as built).",
+    "experiment.validation_duration_s": "Length of a second, different trajectory for cross-validation [s] "
+                                        "(closed loop; 0: none).",
+    "experiment.options": "Settings of the closed-loop experiment; each option's default is listed below.",
+    "experiment.noise": "What the measurement adds.",
+    "experiment.noise.encoder_counts_per_rev": "Encoder resolution (e.g. 65536 for 16 bits); absent: exact angles.",
+    "experiment.noise.torque": "Additive torque noise.",
+    "experiment.noise.torque.kind": "Its distribution.",
+    "experiment.noise.torque.level": "Standard deviation (gaussian) or half-width (uniform, bounded_outliers) [N m].",
+    "experiment.noise.torque.outlier_rate": "bounded_outliers: share of samples that get an outlier.",
+    "experiment.noise.torque.outlier_size": "bounded_outliers: size of an outlier [N m].",
+    "preprocessing": "How the regression rows are built from the recording.",
+    "preprocessing.pairing": "How the filtered and energy models pair each held torque with the state: "
+                             "\"zoh_midpoint\" (midpoint of the hold interval) or \"paper\" (as the direct-drive "
+                             "paper, backward difference).",
+    "preprocessing.lowpass_cutoff_hz": "Zero-phase Butterworth cut-off before the central differences of the "
+                                       "inverse dynamic model [Hz]; absent: no filter.",
+    "preprocessing.decimation": "Parallel filtering and decimation factor of the inverse dynamic rows.",
+    "preprocessing.min_speed_rad_s": "Drop inverse-dynamic rows of a joint slower than this [rad/s] (sign(qd) is "
+                                     "unreliable at rest); 0 keeps every row.",
+    "preprocessing.lambda_rad_s": "Pole of the filters lambda/(s + lambda), lambda s/(s + lambda) [rad/s].",
+    "preprocessing.discretisation": "Discretisation of those filters.",
+    "prior": "Prior knowledge: a box, the OBE's initial set (circumscribed) and a bound of the exact polytope.",
+    "prior.center": "\"model\": the robot's a-priori values (unknown ones at 0); \"zero\": the origin.",
+    "prior.relative_range": "Half-width as a fraction of |a-priori value| where one is known.",
+    "prior.absolute_range": "Half-width where no a-priori value is known, in each parameter's unit.",
+    "estimators[]": "One table per estimator ([[estimators]]); at least one.",
+    "estimators[].method": "The estimator.",
+    "estimators[].label": "Its name on the page (unique; default: the method in capitals).",
+    "estimators[].regressions": "The regression models it runs on, among the study's `regressions`.",
+    "estimators[].form": "OBE form: \"factorized\" (square root, the H4 paper's) or \"standard\".",
+    "estimators[].criterion": "OBE update criterion.",
+    "estimators[].e_max": "Needed by obe (refused without it): the bound on |y - w^T theta| in the regression's "
+                          "unit (N m, or J for supplied energy).",
+    "estimators[].theta0": "Initial estimate (every parameter).",
+    "estimators[].P0": "Initial covariance P(0) = P0 I.",
+    "estimators[].forgetting": "RLS forgetting factor (1: none).",
+    "estimators[].level": "Confidence level of the statistical set.",
+    "estimators[].R": "Kalman measurement noise variance.",
+    "estimators[].Q": "Kalman process noise variance (0: constant parameters).",
+    "exact": "The exact optima, computed on one regression's rows.",
+    "exact.regression": "The regression whose feasible polytope is solved; absent: no exact optima.",
+    "exact.e_max": "Required with `regression`: the error bound of the polytope (equal to the e_max of an OBE "
+                   "on the same rows).",
+    "exact.lp_bounds": "Compute the exact parameter bounds (2p LPs).",
+    "exact.sdp": "SDP ellipsoids to compute: outer (S-procedure upper bound on the minimum-volume ellipsoid), "
+                 "inner (largest inscribed), john.",
+    "exact.projections": "Pairs of parameter names whose 2-D projections of the sets are drawn.",
+    "paper": "The paper's published values for the page's comparison table (free-form table).",
+    "campaign": "A Monte Carlo campaign (boundid campaign): replicates of noise scenarios.",
+    "campaign.replicates": "Replicates per scenario (the command's --replicates overrides it).",
+    "campaign.scenarios[]": "One table per scenario ([[campaign.scenarios]]); each overrides the experiment.",
+    "campaign.scenarios[].name": "A plain name (files and page rows).",
+    "campaign.scenarios[].description": "The scenario in words.",
+    "campaign.scenarios[].encoder_counts_per_rev": "Overrides experiment.noise.encoder_counts_per_rev.",
+    "campaign.scenarios[].structural_error": "Overrides experiment.structural_error (closed loop only).",
+    "campaign.scenarios[].torque": "Overrides experiment.noise.torque (same keys).",
+    "campaign.scenarios[].torque.kind": "As experiment.noise.torque.kind.",
+    "campaign.scenarios[].torque.level": "As experiment.noise.torque.level [N m].",
+    "campaign.scenarios[].torque.outlier_rate": "As experiment.noise.torque.outlier_rate.",
+    "campaign.scenarios[].torque.outlier_size": "As experiment.noise.torque.outlier_size [N m].",
+}
+
+
+@dataclass
+class Key:
+    """One key of a study file as the parser reads it."""
+
+    path: str  # dotted, "[]" after an array of tables
+    kind: str  # "string", "number", "integer", "true or false", "list of strings", "table", ...
+    required: bool = False
+    default: Any = None
+    default_note: str = ""  # "depends on method" (the default follows another key), "built in" (read if given)
+    allowed: str = ""  # choices or range, in words
+    when: dict[str, set[str]] = field(default_factory=dict)  # choice key -> its values under which it is read
+    options: dict[str, Any] | None = None  # an option table: {option: default}
+    options_by: dict[str, dict[str, Any]] = field(default_factory=dict)  # 'model = "h4"' -> its options
+
+
+def _dotted(section: Section, key: str) -> str:
+    return re.sub(r"\[\d+\]", "[]", f"{section.path}.{key}" if section.path else key)
+
+
+def _range(lo=None, hi=None, strict_lo=False, strict_hi=False) -> str:
+    parts = ([f"{'>' if strict_lo else '>='} {lo:g}"] if lo is not None else []) + (
+        [f"{'<' if strict_hi else '<='} {hi:g}"] if hi is not None else [])
+    return ", ".join(parts)
+
+
+class _AnyKey(dict):
+    """The probe's parsed file: it has every key (``"campaign" in data``), each an empty table."""
+
+    def __contains__(self, key) -> bool:
+        return True
+
+
+class _Probe(Section):
+    """A Section that answers every typed look-up with a valid value and records the look-up."""
+
+    seen: dict[str, Key]
+    forced: dict[str, str]
+    optional: set[str]
+
+    def __init__(self, data, path, file):
+        super().__init__(data if isinstance(data, dict) else {}, path, file)
+
+    def _note(self, key: str, kind: str, default: Any = MISSING, allowed: str = "", **extra) -> str:
+        path = _dotted(self, key)
+        self._read.add(key)
+        if path not in _Probe.seen:
+            guarded = default is MISSING and path in _Probe.optional  # read only if given, default in the code
+            _Probe.seen[path] = Key(path, kind, default is MISSING and not guarded,
+                                    None if default is MISSING else default, allowed=allowed,
+                                    default_note="built in" if guarded else "", **extra)
+        return path
+
+    def has(self, key: str) -> bool:
+        _Probe.optional.add(_dotted(self, key))  # read only if given: not required
+        return True
+
+    def str(self, key, default=MISSING, choices=None):
+        allowed = tuple(choices) if choices is not None else ()
+        path = self._note(key, "string", default, ", ".join(f'"{c}"' for c in allowed))
+        if allowed:
+            return _Probe.forced.get(path, allowed[0])
+        return default if isinstance(default, str) else "probe"
+
+    def float(self, key, default=MISSING, lo=None, hi=None, strict_lo=False, strict_hi=False):
+        self._note(key, "number", default, _range(lo, hi, strict_lo, strict_hi))
+        if isinstance(default, int | float):
+            return float(default)
+        value = (lo if lo is not None else 0.0) + 1.0
+        return (lo + hi) / 2 if hi is not None and value >= hi else value
+
+    def int(self, key, default=MISSING, lo=None):
+        self._note(key, "integer", default, _range(lo))
+        return default if isinstance(default, int) else (lo if lo is not None else 1)
+
+    def bool(self, key, default=MISSING):
+        self._note(key, "true or false", default)
+        return default if isinstance(default, bool) else True
+
+    def list(self, key, default=MISSING, of=builtins.str, choices=None):
+        allowed = tuple(choices) if choices is not None else ()
+        kinds = {builtins.str: "strings", builtins.list: "lists"}.get(of, "values")
+        self._note(key, f"list of {kinds}", default, ", ".join(f'"{c}"' for c in allowed))
+        if allowed:
+            return list(allowed)
+        return [] if of is builtins.list else (list(default) if isinstance(default, list) else ["a", "b"])
+
+    def section(self, key, required=False):
+        self._note(key, "table", MISSING if required else {})
+        return _Probe({}, f"{self.path + '.' if self.path else ''}{key}", self.file)
+
+    def sections(self, key):
+        self._note(f"{key}[]", "array of tables", [])
+        return [_Probe({}, f"{self.path + '.' if self.path else ''}{key}[0]", self.file)]
+
+    def raw(self, key, default=MISSING):
+        self._note(key, "table", default)
+        return {} if default is MISSING else default
+
+    def plain_name(self, key):
+        self._note(key, "string (a plain name)")
+        return "probe"
+
+    def options(self, key, known, owner):
+        self._note(key, "table", {}, options=dict(known))
+        return {}
+
+    def check_unknown(self, known=None):
+        return None
+
+
+@contextmanager
+def _probing(forced: dict[str, str]) -> Iterator[dict[str, Key]]:
+    """While inside, every module of boundid.studies that reads study files with Section and
+    read_toml reads the probe instead."""
+    read_toml = schema.read_toml
+    modules = [m for name, m in list(sys.modules.items()) if name.startswith("boundid.studies.") and m is not schema
+               and (getattr(m, "Section", None) is Section or getattr(m, "read_toml", None) is read_toml)]
+    saved = [(m, dict(vars(m))) for m in modules]
+    _Probe.seen, _Probe.forced, _Probe.optional = {}, forced, set()
+    try:
+        for m in modules:
+            if getattr(m, "Section", None) is Section:
+                m.Section = _Probe
+            if getattr(m, "read_toml", None) is read_toml:
+                m.read_toml = lambda path: _AnyKey()
+        yield _Probe.seen
+    finally:
+        for m, before in saved:
+            for name in ("Section", "read_toml"):
+                if name in before:
+                    setattr(m, name, before[name])
+
+
+def _parse_once(forced: dict[str, str]) -> dict[str, Key]:
+    from boundid.errors import BoundidError
+    from boundid.studies import config, scenarios
+
+    with tempfile.TemporaryDirectory() as tmp, _probing(forced) as seen:
+        path = Path(tmp) / "probe.toml"
+        path.write_text("")
+        try:
+            cfg = config.load_study(path)
+        except BoundidError:  # the probe's values may not make a runnable study; the keys were read
+            cfg = None
+        if cfg is not None:
+            try:
+                scenarios.load_campaign(cfg)
+            except BoundidError:
+                pass
+        return dict(seen)
+
+
+def study_keys() -> list[Key]:
+    """Every key the parser reads, in reading order, each with the choices under which it is read."""
+    base = _parse_once({})
+    keys = dict(base)
+    runs: dict[str, dict[str, set[str]]] = {}  # choice key -> choice -> keys read
+    for path, key in base.items():
+        choices = re.findall(r'"([^"]+)"', key.allowed) if key.kind == "string" else []
+        if len(choices) < 2:
+            continue
+        runs[path] = {}
+        options: dict[str, dict[str, dict]] = {}  # option table -> choice -> its options
+        defaults: dict[str, set[str]] = {}  # key -> its defaults over the choices
+        for choice in choices:
+            seen = _parse_once({path: choice})
+            runs[path][choice] = set(seen)
+            for p, k in seen.items():
+                keys.setdefault(p, k)
+                defaults.setdefault(p, set()).add(repr(k.default))
+                if k.options is not None:
+                    options.setdefault(p, {})[choice] = k.options
+        for p, values in defaults.items():
+            if len(values) > 1 and p != path:
+                keys[p].default_note = f"depends on {path.rsplit('.', 1)[-1]}"
+        for p, by_choice in options.items():  # options that depend on this choice: one list per choice
+            if len({repr(sorted(o.items())) for o in by_choice.values()}) > 1:
+                name = path.rsplit(".", 1)[-1]
+                keys[p].options_by = {f'{name} = "{c}"': o for c, o in by_choice.items()}
+    for choice_key, by_choice in runs.items():
+        every = set.intersection(*by_choice.values())
+        for p in set.union(*by_choice.values()) - every:
+            keys[p].when[choice_key] = {c for c, s in by_choice.items() if p in s}
+    return list(keys.values())
+
+
+def _default_text(key: Key) -> str:
+    if key.required:
+        return "required"
+    if key.kind in ("table", "array of tables"):
+        return ""
+    if key.default_note:
+        return key.default_note
+    d = key.default
+    if d is None or d == {} or d == []:
+        return "" if key.kind in ("table", "array of tables") else "absent"
+    if isinstance(d, bool):
+        return "true" if d else "false"
+    if isinstance(d, str):
+        return f'"{d}"'
+    return f"{d!r}".replace("(", "[").replace(")", "]") if isinstance(d, tuple) else f"{d:g}" if isinstance(
+        d, float) else str(d)
+
+
+def _toml_name(path: str) -> str:
+    return path.replace("[]", "")
+
+
+def render(keys: list[Key]) -> str:
+    """The Markdown of docs/study-files.md."""
+    missing = [k.path for k in keys if k.path not in DESCRIPTIONS]
+    stale = sorted(set(DESCRIPTIONS) - {k.path for k in keys})
+    if missing or stale:
+        raise SystemExit("boundid.docs: " + (f"no description for {missing} (add it to DESCRIPTIONS) " if missing
+                                             else "") + (f"descriptions of keys the parser no longer reads: {stale}"
+                                                         if stale else ""))
+    tables = [k for k in keys if k.kind in ("table", "array of tables")]
+    lines = ["# Study files", "",
+             "<!-- Generated by `python -m boundid.docs` (make docs) from the study-file parser; do not edit. -->", "",
+             "A study is a TOML file (`studies/*.toml`; a measured-data example to copy is "
+             "`studies/examples/measured_direct_drive.toml`). `boundid run <file>` runs it; every key is checked "
+             "when the file is read, and an unknown or misspelt key is refused with a message naming the file, "
+             "the key and what is allowed.", "",
+             "Each table below lists its keys: type, default (\"required\": no default; \"absent\": the feature "
+             "is off unless given; \"built in\": the estimator's own default), allowed values, and when the key "
+             "is read, if only under some choice of another key.", ""]
+
+    def when(k: Key) -> str:
+        return "; ".join(f"{_toml_name(ck).rsplit('.', 1)[-1]} = " + " or ".join(f'"{c}"' for c in sorted(v))
+                         for ck, v in k.when.items())
+
+    def table_rows(members: list[Key]) -> list[str]:
+        out = ["| key | type | default | allowed | read when | description |", "|---|---|---|---|---|---|"]
+        for k in members:
+            name = k.path.rsplit(".", 1)[-1].replace("[]", "")
+            cells = [f"`{name}`", k.kind, _default_text(k), k.allowed, when(k), DESCRIPTIONS[k.path]]
+            out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+        return out
+
+    top = [k for k in keys if "." not in k.path.replace("[]", "") and k.kind not in ("table", "array of tables")]
+    if top:
+        lines += ["## Top level", "", *table_rows(top), ""]
+    roots = list(dict.fromkeys(k.path.split(".")[0] for k in keys))
+    for t in sorted(tables, key=lambda t: roots.index(t.path.split(".")[0])):
+        members = [k for k in keys if k.path.rsplit(".", 1)[0] == t.path and "." in k.path and k not in tables]
+        name = _toml_name(t.path)
+        parent, _, last = t.path.rpartition(".")
+        if "[]" in parent:  # a table inside each element of an array of tables
+            header = f"`{last}` in each `[[{_toml_name(parent)}]]`"
+        else:
+            header = f"`[[{name}]]`" if t.kind == "array of tables" else f"`[{name}]`"
+        lines += [f"## {header}", "", DESCRIPTIONS[t.path] + (
+            f" Read when {when(t)}." if t.when else "") + (" Required." if t.required else ""), ""]
+        if t.options is not None:
+            for case, options in (t.options_by or {"": t.options}).items():
+                lines += [f"With {case}:", ""] if case else []
+                if options:
+                    lines += ["| option | type | default |", "|---|---|---|"]
+                    lines += [f"| `{o}` | {describe_option(d)} | {_default_text(Key(o, '', default=d))} |"
+                              for o, d in options.items()]
+                else:
+                    lines += ["No options."]
+                lines.append("")
+        if members:
+            lines += [*table_rows(members), ""]
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m boundid.docs", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", default="docs/study-files.md", help="file to write (default: docs/study-files.md)")
+    ap.add_argument("--check", action="store_true", help="write nothing; exit 1 if --out differs from the generated")
+    args = ap.parse_args(argv)
+    text = render(study_keys())
+    out = Path(args.out)
+    if args.check:
+        same = out.is_file() and out.read_text(encoding="utf-8") == text
+        print(f"{out}: {'up to date' if same else 'differs from the generated file: run python -m boundid.docs'}")
+        return 0 if same else 1
+    out.write_text(text, encoding="utf-8")
+    print(out)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
