@@ -431,9 +431,11 @@ def findings(r: StudyResult, verdicts: list[Claim], failures: list[Failure]) -> 
                 f"yes, all {len(certs)}" if not miss else f"NO: {', '.join(miss)} (of {len(certs)})")
             comparison = set_comparison(r)
             clipped = comparison[0]["mean width / exact"] if comparison is not None else {}
-            out["OBE mean width / exact width (∩ prior box)"] = ", ".join(
+            out["set width / exact width (∩ prior box)"] = ", ".join(
                 (f"{lab} {clipped[lab]:.3g} x (raw set " if lab in clipped else f"{lab} (raw set ")
                 + f"{float(np.mean(c.width_ratio)):.3g} x)" for lab, c in certs.items())
+    if ex is not None and ex.physical is not None:
+        out["physically consistent bounds"] = _physical_finding(ex.physical)
     if verdicts:
         counts = {v: sum(c.verdict == v for c in verdicts) for v in VERDICTS}
         out["paper claims"] = ", ".join(f"{n} {v}" for v, n in counts.items() if n) + " (table below)"
@@ -581,6 +583,8 @@ def _page(r: StudyResult) -> Page:
         _validation_section(page, r)
     with guard("section", "distance to the exact optimum"):
         _exact_section(page, r, guard)
+    with guard("section", "physically consistent bounds"):
+        _physical_section(page, r)
     with guard("section", "OBE breakdown rate"):
         _sweep_section(page, r)
     box["failures"] = "none" if not failures else f"{len(failures)}, listed in the last section"
@@ -594,6 +598,44 @@ def _page(r: StudyResult) -> Page:
                    "Failures of the run and of the page.", name="failures")
     page.setup.update({"failures": box["failures"]})
     return page
+
+
+def _physical_finding(ph) -> str:
+    if ph.error is not None:
+        return f"not computed: {ph.error.split(':')[0]} (see What failed)"
+    return (f"{ph.narrower} of {len(ph.intervals)} exact intervals narrower under the physical constraints "
+            f"(mean width {ph.mean_width_ratio:.3g} x the plain width)")
+
+
+def _physical_section(page: Page, r: StudyResult) -> None:
+    """The exact bounds with the model's physical constraints beside the plain exact bounds, and
+    whether each statistical estimate is physically consistent ([WensingKimSlotine2018])."""
+    ex = r.exact
+    ph = ex.physical if ex is not None else None
+    if ph is None:
+        return
+    if ph.error is not None:
+        return
+    n = len(ph.intervals)
+    negative = int((ph.intervals["plain_lo"] < 0).sum() - (ph.intervals["phys_lo"] < 0).sum())
+    page.section("Physically consistent exact bounds",
+                 f"The exact polytope of the {ex.regression} rows and the prior box knows nothing of physics: its "
+                 f"intervals reach into negative inertias, masses or friction. Intersected with the model's "
+                 f"{ph.n_constraints} physical constraints (docs/models.md; {ph.method}, certificate: "
+                 f"{ph.certificate}), {ph.narrower} of {n} intervals are narrower and {negative} lower bounds move "
+                 f"from below 0 to 0 or above; gamma* is {ph.gamma_plain:.4g} without physics and "
+                 f"{ph.gamma_phys:.4g} with it (<= 1: the data and physics agree within the bound).")
+    df = ph.intervals.copy()
+    df.columns = ["plain lo", "plain hi", "physical lo", "physical hi", "width ratio", "narrower?", "truth inside?"]
+    if df["truth inside?"].isna().all():
+        df = df.drop(columns="truth inside?")
+    page.table(df, "Exact bounds per parameter, plain (strips ∩ prior box) and physically consistent, in SI "
+               "units; width ratio = physical width / plain width.", name="physical_bounds")
+    if len(ph.estimates):
+        est = ph.estimates.rename(columns={"margin": "physical margin", "consistent": "physically consistent?",
+                                           "worst": "most violated constraint"})
+        page.table(est, "Is each statistical estimate's centre physically consistent? The margin is minus the "
+                   "largest violation of a constraint (>= 0: consistent).", name="physical_estimates")
 
 
 def _sweep_section(page: Page, r: StudyResult) -> None:
