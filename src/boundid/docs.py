@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import builtins
+import dataclasses
 import re
 import sys
 import tempfile
@@ -26,8 +27,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from boundid.estimators.registry import METHODS
 from boundid.studies import schema
 from boundid.studies.schema import Section, describe_option
+
+#: former option names the parser refuses, naming the new one (an options field's ``renamed_from``)
+RENAMED = frozenset(old for m in METHODS.values() for f in dataclasses.fields(m.options)
+                    for old in f.metadata.get("renamed_from", ()))
 
 MISSING = object()  # the probe's "no default given": the parser calls the look-up without one (required)
 
@@ -93,8 +99,6 @@ DESCRIPTIONS = {
     "estimators[].criterion": "OBE update criterion.",
     "estimators[].e_max": "Needed by obe (refused without it): the bound on |y - w^T theta| in the regression's "
                           "unit (N m, or J for supplied energy).",
-    "estimators[].theta0": "Initial estimate (every parameter).",
-    "estimators[].P0": "Initial covariance P(0) = P0 I.",
     "estimators[].forgetting": "RLS forgetting factor (1: none).",
     "estimators[].level": "Confidence level of the statistical set.",
     "estimators[].R": "Kalman measurement noise variance.",
@@ -121,6 +125,13 @@ DESCRIPTIONS = {
     "campaign.scenarios[].torque.outlier_rate": "As experiment.noise.torque.outlier_rate.",
     "campaign.scenarios[].torque.outlier_size": "As experiment.noise.torque.outlier_size [N m].",
 }
+
+#: an estimator option without a sentence above takes its options dataclass's help line
+#: (:func:`boundid.estimators.method.option`): the first method that declares the name
+for _m in METHODS.values():
+    for _f in dataclasses.fields(_m.options):
+        if _f.metadata.get("help"):
+            DESCRIPTIONS.setdefault(f"estimators[].{_f.name}", f"{_m.name}: {_f.metadata['help']}")
 
 
 @dataclass
@@ -176,6 +187,8 @@ class _Probe(Section):
         return path
 
     def has(self, key: str) -> bool:
+        if key in RENAMED:  # a former name: the parser only looks for it to refuse it
+            return False
         _Probe.optional.add(_dotted(self, key))  # read only if given: not required
         return True
 
