@@ -1,4 +1,4 @@
-"""Estimate fields and summaries no other test read (gaps found by the mutation run of issue 13)."""
+"""Estimate fields and summaries no other test read (gaps found by the mutation run)."""
 
 from __future__ import annotations
 

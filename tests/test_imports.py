@@ -13,7 +13,7 @@ from pathlib import Path
 SRC = Path(__file__).resolve().parents[1] / "src"
 #: layer of each top-level part of the package (docs: README "Layout")
 LAYERS = {"__init__": 0, "_validation": 0, "errors": 0, "resources": 0, "sets": 1, "estimators": 2, "models": 3,
-          "experiments": 4, "studies": 5, "report": 6, "cli": 6, "bench": 6, "teaching": 6}
+          "experiments": 4, "studies": 5, "report": 6, "cli": 6, "bench": 6, "teaching": 6, "docs": 6}
 
 
 def _modules() -> dict[str, Path]:

@@ -1,4 +1,4 @@
-"""OBE cases no other test reached (found by the mutation run of issue 13): a strip the trace
+"""OBE cases no other test reached (found by the mutation run): a strip the trace
 criterion declines, and the verdict on a one-parameter fit."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from boundid.estimators import _obe_kernels as K
 
 
 def _trace_objective(q, sigma, G, eps, T, H):
-    """tr(sigma' M'^-1) after the update with q = lambda / alpha (REFERENCES §1 pencil, gamma = 1;
+    """tr(sigma' M'^-1) after the update with q = lambda / alpha ([refs §OBE] pencil, gamma = 1;
     Sherman-Morrison for the inverse; T - q H / (1 + q G) written over the common denominator, which
     does not cancel for large q)."""
     return (sigma + q - q * eps**2 / (1.0 + q * G)) * (T + q * (G * T - H)) / (1.0 + q * G)

@@ -1,4 +1,4 @@
-"""Physical-constraint cases no other test reached (found by the mutation run of issue 13)."""
+"""Physical-constraint cases no other test reached (found by the mutation run)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Vertices and volume of a strip polytope cut by a box and by extra halfspaces (gaps found by the
-mutation run of issue 13: no test had a box face or a halfspace face on P)."""
+mutation run: no test had a box face or a halfspace face on P)."""
 
 from __future__ import annotations
 

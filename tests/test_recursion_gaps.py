@@ -1,4 +1,4 @@
-"""Zonotope recursion counts and outlier residuals (gaps found by the mutation run of issue 13)."""
+"""Zonotope recursion counts and outlier residuals (gaps found by the mutation run)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Every SDP entry point reports a failed solve unless the caller asked for the fallback (a gap the
-mutation run of issue 13 found: only inner_ellipsoid was checked without the fallback)."""
+mutation run found: only inner_ellipsoid was checked without the fallback)."""
 
 from __future__ import annotations
 

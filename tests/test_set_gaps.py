@@ -1,4 +1,4 @@
-"""Set-family cases no other test reached (gaps found by the mutation run of issue 13)."""
+"""Set-family cases no other test reached (gaps found by the mutation run)."""
 
 from __future__ import annotations
 
