@@ -445,8 +445,8 @@ def findings(r: StudyResult, verdicts: list[Claim], failures: list[Failure]) -> 
             f"{lab.split(' / ')[0]} {sum(x is not None for x in o)} of {len(o)} noise seeds"
             for lab, o in sweep.outcomes.items())
     elif any(e.method.startswith("OBE") for e in r.estimates.values()):
-        out["OBE breakdown rate"] = ("not measured: a noise-seed sweep of a closed-loop experiment re-runs the "
-                                     "control loop; this run's OBE outcomes may differ between machines")
+        out["OBE breakdown rate"] = ("not measured: the data are not simulated, so no other noise draw exists; "
+                                     "this run's OBE outcomes may differ between machines")
     out["failures"] = "none" if not failures else f"{len(failures)}, listed in the last section"
     return out
 

@@ -22,12 +22,15 @@ class StudyData:
     validation: a second, different experiment for cross-validation (or None).
     excitation: the open-loop torque law (for re-simulation), if any.
     info: facts about the experiment shown in the report (condition numbers, saturation ...).
+    clean_tau: (N, n) N m, the identification recording's torque before its measurement noise, when
+    the simulation adds the noise to the recorded torque only (closed loop), else None.
     """
 
     recording: Recording
     validation: Recording | None = None
     excitation: object | None = None
     info: dict = field(default_factory=dict)
+    clean_tau: np.ndarray | None = None
 
 
 def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:
@@ -48,8 +51,8 @@ def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> St
         return StudyData(recording=rec, info={"source": str(m.file)})
     if exp.control == "open_loop":
         return _open_loop(cfg, model, rng)
-    recording, validation, info = closed_loop_data(cfg, model, rng)
-    return StudyData(recording=recording, validation=validation, info=info)
+    recording, validation, info, clean_tau = closed_loop_data(cfg, model, rng)
+    return StudyData(recording=recording, validation=validation, info=info, clean_tau=clean_tau)
 
 
 def _open_loop(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:

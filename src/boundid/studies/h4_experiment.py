@@ -12,9 +12,11 @@ from boundid.studies.config import StudyConfig
 
 
 def closed_loop_data(cfg: StudyConfig, model: RobotModel,
-                     rng: np.random.Generator) -> tuple[Recording, Recording, dict]:
-    """Identification and validation recordings (encoder angles, measured torques) of the H4 and
-    the experiment's facts for the report (:class:`boundid.studies.data.StudyData` holds them)."""
+                     rng: np.random.Generator) -> tuple[Recording, Recording, dict, np.ndarray]:
+    """Identification and validation recordings (encoder angles, measured torques) of the H4, the
+    experiment's facts for the report (:class:`boundid.studies.data.StudyData` holds them) and the
+    identification run's torque before the measurement noise (N, 4) N m: the noise is added to the
+    recorded torque only, so a new draw of it is a new draw of the experiment's noise."""
     exp = cfg.experiment
     if "closed_loop" not in model.experiments:
         raise StudyError(f"{cfg.file}: experiment.control = 'closed_loop' is the H4 paper's experiment, which the "
@@ -35,4 +37,4 @@ def closed_loop_data(cfg: StudyConfig, model: RobotModel,
         r = recs[name]
         return Recording(t=r.run.t, q=r.run.q_meas, tau=r.tau_meas)
 
-    return recording("identification"), recording("validation"), info
+    return recording("identification"), recording("validation"), info, recs["identification"].run.tau

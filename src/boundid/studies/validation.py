@@ -157,10 +157,12 @@ class BreakdownSweep:
 
 
 def obe_breakdown_sweep(cfg: StudyConfig, model: RobotModel, data: StudyData, n_seeds: int) -> BreakdownSweep | None:
-    """Re-draw the encoder and torque noise of the open-loop experiment ``n_seeds`` times (streams
-    ``default_rng([cfg.seed, 2, k])``) on the same noise-free motion, rebuild the OBE estimators'
-    regression and refit every OBE estimator of the study. None where no OBE runs or the data are
-    not an open-loop simulation (a closed-loop sweep would re-run the whole control loop)."""
+    """Re-draw the experiment's noise ``n_seeds`` times (streams ``default_rng([cfg.seed, 2, k])``)
+    on the same noise-free motion, rebuild the OBE estimators' regression and refit every OBE
+    estimator of the study. Open loop: the encoder and torque noise of the simulated motion; closed
+    loop: the torque measurement noise on the recorded run (it is added to the recording only, so
+    the motion and the encoder angles are those of the run). None where no OBE runs or the data
+    are not simulated."""
     from boundid.experiments.recording import Recording
     from boundid.experiments.simulation import measure
     from boundid.studies.estimation import run_estimator
@@ -168,16 +170,24 @@ def obe_breakdown_sweep(cfg: StudyConfig, model: RobotModel, data: StudyData, n_
 
     exp = cfg.experiment
     obes = [ec for ec in cfg.estimators if ec.method == "obe"]
-    if not obes or n_seeds <= 0 or exp.source != "simulate" or data.excitation is None:
+    if not obes or n_seeds <= 0 or exp.source != "simulate" or (data.excitation is None and data.clean_tau is None):
         return None
     regs = sorted({rn for ec in obes for rn in ec.regressions})
-    traj = simulate_open_loop(model, data.excitation, exp.duration_s, exp.sample_period_s,
-                              coulomb_width=exp.coulomb_width_rad_s)
+    traj = None
+    if data.excitation is not None:
+        traj = simulate_open_loop(model, data.excitation, exp.duration_s, exp.sample_period_s,
+                                  coulomb_width=exp.coulomb_width_rad_s)
     seeds = list(range(n_seeds))
     sweep = BreakdownSweep(seeds, ", ".join(regs), {f"{ec.label} / {rn}": [] for ec in obes for rn in ec.regressions})
     for k in seeds:
-        meas = measure(traj, exp.encoder_counts_per_rev, exp.torque_noise, np.random.default_rng([cfg.seed, 2, k]))
-        built = build_regressions(model, Recording(t=meas.t, q=meas.q, tau=meas.tau), cfg.preprocessing, tuple(regs))
+        rng = np.random.default_rng([cfg.seed, 2, k])
+        if traj is not None:
+            meas = measure(traj, exp.encoder_counts_per_rev, exp.torque_noise, rng)
+            rec = Recording(t=meas.t, q=meas.q, tau=meas.tau)
+        else:
+            noise, _ = exp.torque_noise.sample(data.clean_tau.shape, rng)
+            rec = Recording(t=data.recording.t, q=data.recording.q, tau=data.clean_tau + noise)
+        built = build_regressions(model, rec, cfg.preprocessing, tuple(regs))
         for ec in obes:
             for rn in ec.regressions:
                 try:
