@@ -178,3 +178,26 @@ def test_sets_of_other_families_are_certified_through_the_protocol(family):
         assert np.isnan(cert.max_gauge)
         np.testing.assert_allclose(cert.width_ratio, 1.0, atol=1e-6)
         assert cert.excess_polytope == pytest.approx(0.0, abs=1e-6)
+
+
+def test_certificate_brackets_the_excess_over_the_minimum_volume_outer_ellipsoid():
+    """For p = 3 the minimum-volume ellipsoid containing P is computable exactly (the enclosing
+    ellipsoid of every vertex, Qhull + Clarabel, an independent route): the certificate's bracket
+    of the set's ln-volume excess per axis must contain the true excess, and the bracket's ends
+    must straddle that optimum's ln vol."""
+    from boundid.sets import sdp
+
+    rng = np.random.default_rng(5)
+    theta = rng.normal(size=3)
+    W = rng.normal(size=(60, 3))
+    y = W @ theta + rng.uniform(-0.2, 0.2, 60)
+    P = Polytope(W, y, 0.2)
+    est = OBE(3, shape0=100.0).fit(W, y, 0.2)
+    bracket = sdp.min_volume_bracket(P)
+    cert = validate(est, P, bracket=bracket)
+    exact = sdp.enclosing_ellipsoid(P.vertices()).ellipsoid.log_volume()
+    assert bracket.lower <= exact + 1e-6 and exact <= bracket.upper + 1e-9
+    low, high = cert.excess_min_outer
+    true_excess = (est.set.log_volume() - exact) / 3
+    assert low - 1e-9 <= true_excess <= high + 1e-6
+    assert "(bracketed)" in cert.summary()

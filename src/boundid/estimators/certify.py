@@ -60,7 +60,11 @@ class Certificate:
     log_volume_outer, outer_kind : the outer reference's ln vol and what it is
     log_volume_inner : ln vol of the maximum-volume inscribed ellipsoid
     log_volume_polytope : ln vol P (p <= 6, else NaN)
+    min_outer_bracket : (lower, upper) bracket of ln vol of the minimum-volume ellipsoid containing
+        P (:func:`boundid.sets.sdp.min_volume_bracket`), or (NaN, NaN) when not given
     excess_outer, excess_inner, excess_polytope : per-dimension ln-volume excesses of E
+    excess_min_outer : (low, high) per-dimension ln-volume excess of the set over the minimum-volume
+        outer ellipsoid, bracketed: the true excess lies in it (NaN when no bracket was given)
     info : timings (s) and solver facts
     """
 
@@ -82,11 +86,17 @@ class Certificate:
     outer_kind: str
     log_volume_inner: float
     log_volume_polytope: float
+    min_outer_bracket: tuple[float, float] = (float("nan"), float("nan"))
     info: dict = field(default_factory=dict)
 
     @property
     def p(self) -> int:
         return int(self.lp_lo.shape[0])
+
+    @property
+    def excess_min_outer(self) -> tuple[float, float]:
+        lower, upper = self.min_outer_bracket
+        return (self.log_volume - upper) / self.p, (self.log_volume - lower) / self.p
 
     @property
     def excess_outer(self) -> float:
@@ -128,6 +138,9 @@ class Certificate:
         ]
         if np.isfinite(self.log_volume_polytope):
             head.append(("", f"{self.excess_polytope:.4g} over the polytope itself"))
+        if np.all(np.isfinite(self.min_outer_bracket)):
+            lo_x, hi_x = self.excess_min_outer
+            head.append(("", f"[{lo_x:.4g}, {hi_x:.4g}] over the minimum-volume outer ellipsoid (bracketed)"))
         lines = ["=" * width, f"{'boundid certificate: distance to the exact optimum':^{width}}", "-" * width]
         lines += [f"{k + ':' if k else '':<14}{v}" for k, v in head]
         lines = [ln for row in lines for ln in (textwrap.wrap(row, width, subsequent_indent=" " * 14) or [""])]
@@ -148,7 +161,7 @@ def _as_ellipsoid(ref, what: str, sdp) -> Ellipsoid:
     raise InputError(f"{what} must be an Ellipsoid or an SDPResult, got {type(ref).__name__}.")
 
 
-def validate(estimate, polytope, *, inner=None, outer=None, volumes: bool = True,
+def validate(estimate, polytope, *, inner=None, outer=None, bracket=None, volumes: bool = True,
              allow_fallback: bool = False) -> Certificate:
     """Certify ``estimate`` (an :class:`Estimate` with a set, or a bare
     :class:`~boundid.sets.ConvexSet`) against the exact feasible polytope.
@@ -159,6 +172,8 @@ def validate(estimate, polytope, *, inner=None, outer=None, volumes: bool = True
     polytope : Polytope, or a tuple (W, y, e_max) to build one
     inner, outer : optional precomputed reference ellipsoids (Ellipsoid or SDPResult) for P, to
         certify several estimates against one polytope without re-solving the SDPs
+    bracket : optional :class:`~boundid.sets.sdp.VolumeBracket` of P's minimum-volume outer
+        ellipsoid: the certificate then brackets the set's volume excess over that optimum
     volumes : False skips the SDPs (part (c) then holds NaN)
     allow_fallback : let the SDPs fall back to SCS if Clarabel fails
 
@@ -226,5 +241,7 @@ def validate(estimate, polytope, *, inner=None, outer=None, volumes: bool = True
         max_gauge=float(np.max(gauge)), lp_lo=b.lo.copy(), lp_hi=b.hi.copy(), lo=lo, hi=hi,
         width_ratio=(hi - lo) / (b.hi - b.lo), log_volume=float(S.log_volume()), log_volume_outer=float(lv_out),
         outer_kind=outer_kind, log_volume_inner=float(lv_in), log_volume_polytope=float(lv_p),
+        min_outer_bracket=(float("nan"), float("nan")) if bracket is None else (float(bracket.lower),
+                                                                              float(bracket.upper)),
         info={"time_s": time.perf_counter() - t0, "time_lp_s": t_lp, "n_strips": P.n_strips},
     )

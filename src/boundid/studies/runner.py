@@ -15,6 +15,7 @@ from boundid.estimators.certify import validate
 from boundid.experiments.regression import Regression
 from boundid.models import RobotModel
 from boundid.sets import Polytope, SDPResult, inner_ellipsoid, john_outer, outer_ellipsoid
+from boundid.sets.sdp import VolumeBracket, min_volume_bracket
 from boundid.studies.config import StudyConfig
 from boundid.studies.data import StudyData, acquire
 from boundid.studies.estimation import prior_box, run_estimator
@@ -41,7 +42,9 @@ class ExactResult:
     (reported, never replaced by a wrong answer); certificates: per set-membership estimate label
     (guaranteed or unverified: an unverified set is certified too); physical: the physically
     consistent exact bounds beside the plain ones (:mod:`boundid.studies.physical_stage`; None when
-    the robot states no physical constraints or the LP bounds failed).
+    the robot states no physical constraints or the LP bounds failed); bracket: ln vol of the
+    minimum-volume outer ellipsoid bracketed (:func:`boundid.sets.sdp.min_volume_bracket`; None
+    without the outer and inner SDPs).
     """
 
     regression: str
@@ -56,6 +59,7 @@ class ExactResult:
     certificates: dict = field(default_factory=dict)
     time_s: dict[str, float] = field(default_factory=dict)
     physical: PhysicalResult | None = None
+    bracket: VolumeBracket | None = None
 
     @property
     def consistent(self) -> bool:
@@ -107,10 +111,18 @@ def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, set_estim
                 res.errors[name] = _reason(exc)
             res.time_s[f"sdp_{name}"] = time.perf_counter() - t0
     have_volumes = "outer" in res.sdp and "inner" in res.sdp
+    if have_volumes:
+        with progress.stage(f"{cfg.name}: bracket of the minimum-volume outer ellipsoid"):
+            t0 = time.perf_counter()
+            try:
+                res.bracket = min_volume_bracket(P)
+            except RUN_FAILURES as exc:
+                res.errors["volume bracket"] = _reason(exc)
+            res.time_s["volume_bracket"] = time.perf_counter() - t0
     for label, est in set_estimates.items():
         try:
             res.certificates[label] = validate(est, P, outer=res.sdp.get("outer"), inner=res.sdp.get("inner"),
-                                               volumes=have_volumes)
+                                               bracket=res.bracket, volumes=have_volumes)
         except RUN_FAILURES as exc:
             res.errors[f"certificate of {label}"] = _reason(exc)
     return res
