@@ -131,9 +131,18 @@ def findings(summary: pd.DataFrame, table: pd.DataFrame) -> tuple[list[str], boo
                        "every replicate whose errors respected its bound.")
         never = g[(g["bound_held_replicates"] < g["replicates"] - g["failed"])]
         if len(never):
+            parts = []
+            for scenario, rows in never.groupby("scenario", sort=False):
+                counts = {f"{int(r.bound_held_replicates)} of {int(r.replicates - r.failed)}"
+                          for r in rows.itertuples()}
+                if len(counts) == 1:  # the same rows bound every estimator: say it once
+                    parts.append(f"{scenario}: bound held in {counts.pop()} replicates")
+                else:
+                    parts.append(f"{scenario}: " + ", ".join(
+                        f"{r.estimator} {int(r.bound_held_replicates)} of {int(r.replicates - r.failed)}"
+                        for r in rows.itertuples()))
             out.append("The errors exceeded the bound in some replicates, where no guarantee applies: "
-                       + "; ".join(f"{r.scenario} ({r.estimator}): bound held in {int(r.bound_held_replicates)} of "
-                                   f"{int(r.replicates - r.failed)}" for r in never.itertuples()) + ".")
+                       + "; ".join(parts) + ".")
         w = g[g["width_ratio_median"].notna()]
         if len(w):
             spans = [(lab, v.min(), v.max()) for lab, v in w.groupby("estimator", sort=False)["width_ratio_median"]]
