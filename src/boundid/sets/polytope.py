@@ -346,7 +346,8 @@ class Polytope:
         if self.box is not None:
             lo, hi = self.box
             origin = np.clip(origin, np.where(np.isfinite(lo), lo, -np.inf), np.where(np.isfinite(hi), hi, np.inf))
-            mid = 0.5 * (lo + hi)
+            with np.errstate(invalid="ignore"):  # -inf + inf on a side open both ways: NaN, not used
+                mid = 0.5 * (lo + hi)
             origin = np.where(np.isfinite(mid), np.where(origin <= lo, mid, origin), origin)
             origin = np.where(np.isfinite(mid), np.where(origin >= hi, mid, origin), origin)
         return self._make_frame(origin, scale)
