@@ -34,31 +34,9 @@ from boundid.studies.campaign import (
 )
 from boundid.studies.config import load_study
 from boundid.studies.scenarios import Scenario, load_campaign
+from tiny_study import tiny_study
 
-TINY = """
-regressions = ["filtered_dynamic"]
-
-[study]
-name = "dd_tiny"
-title = "Direct-drive arm, 2 s"
-seed = 7
-
-[robot]
-model = "direct_drive"
-
-[experiment]
-source = "simulate"
-duration_s = 2.0
-sample_period_s = 0.0025
-
-[experiment.noise]
-encoder_counts_per_rev = 65536
-torque = { kind = "uniform", level = 0.5 }
-
-[prior]
-center = "zero"
-absolute_range = 100.0
-
+TINY = tiny_study("dd_tiny", 7) + """
 [[estimators]]
 method = "wls"
 regressions = ["filtered_dynamic"]

@@ -21,31 +21,9 @@ from boundid.report.campaign_page import campaign_page, failure_groups, overview
 from boundid.studies.campaign import run_campaign, summarize
 from boundid.studies.config import load_study
 from boundid.studies.scenarios import Scenario
+from tiny_study import tiny_study
 
-STUDY = """
-regressions = ["filtered_dynamic"]
-
-[study]
-name = "dd_page"
-title = "Direct-drive arm, 2 s"
-seed = 3
-
-[robot]
-model = "direct_drive"
-
-[experiment]
-source = "simulate"
-duration_s = 2.0
-sample_period_s = 0.0025
-
-[experiment.noise]
-encoder_counts_per_rev = 65536
-torque = { kind = "uniform", level = 0.5 }
-
-[prior]
-center = "zero"
-absolute_range = 100.0
-
+STUDY = tiny_study("dd_page", 3) + """
 [[estimators]]
 method = "wls"
 regressions = ["filtered_dynamic"]

@@ -24,31 +24,9 @@ from boundid.sets import Box, Ellipsoid
 from boundid.studies.config import load_study
 from boundid.studies.reproduction import VERDICTS, claims, drift, prior_bounds, shrank
 from boundid.studies.runner import run_study
+from tiny_study import tiny_study
 
-SMALL = """
-regressions = ["filtered_dynamic", "supplied_energy", "filtered_power"]
-
-[study]
-name = "dd_small"
-title = "Direct-drive arm, 2 s"
-seed = 11
-
-[robot]
-model = "direct_drive"
-
-[experiment]
-source = "simulate"
-duration_s = 2.0
-sample_period_s = 0.0025
-
-[experiment.noise]
-encoder_counts_per_rev = 65536
-torque = { kind = "uniform", level = 0.5 }
-
-[prior]
-center = "zero"
-absolute_range = 100.0
-
+SMALL = tiny_study("dd_small", 11, ("filtered_dynamic", "supplied_energy", "filtered_power")) + """
 [[estimators]]
 method = "rls"
 label = "RLS"

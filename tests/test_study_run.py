@@ -26,34 +26,10 @@ from boundid.report.study_page import write_study_report
 from boundid.sets import Ellipsoid
 from boundid.studies.config import load_study
 from boundid.studies.runner import run_study, tidy_table
+from tiny_study import tiny_study
 
-SHORT = """
-regressions = ["filtered_dynamic", "supplied_energy", "filtered_power", "inverse_dynamic"]
-
-[study]
-name = "dd_short"
-title = "Direct-drive arm, 2 s"
-seed = 7
-
-[robot]
-model = "direct_drive"
-
-[experiment]
-source = "simulate"
-duration_s = 2.0
-sample_period_s = 0.0025
-
-[experiment.noise]
-encoder_counts_per_rev = 65536
-torque = { kind = "uniform", level = 0.5 }
-
-[preprocessing]
-lowpass_cutoff_hz = 10.0
-
-[prior]
-center = "zero"
-absolute_range = 100.0
-
+SHORT = tiny_study("dd_short", 7, ("filtered_dynamic", "supplied_energy", "filtered_power", "inverse_dynamic"),
+                   extra="\n[preprocessing]\nlowpass_cutoff_hz = 10.0\n") + """
 [[estimators]]
 method = "rls"
 regressions = ["filtered_dynamic", "supplied_energy", "filtered_power"]

@@ -17,31 +17,9 @@ from boundid.cli import main
 from boundid.report.verdict import run_verdict
 from boundid.studies.config import load_study
 from boundid.studies.runner import Failure, run_study
+from tiny_study import tiny_study
 
-TINY = """
-regressions = ["filtered_dynamic"]
-
-[study]
-name = "dd_verdict"
-title = "Direct-drive arm, 2 s"
-seed = 7
-
-[robot]
-model = "direct_drive"
-
-[experiment]
-source = "simulate"
-duration_s = 2.0
-sample_period_s = 0.0025
-
-[experiment.noise]
-encoder_counts_per_rev = 65536
-torque = { kind = "uniform", level = 0.5 }
-
-[prior]
-center = "zero"
-absolute_range = 100.0
-
+TINY = tiny_study("dd_verdict", 7) + """
 [[estimators]]
 method = "wls"
 regressions = ["filtered_dynamic"]
