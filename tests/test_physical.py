@@ -23,6 +23,7 @@ from boundid.models.direct_drive import PHYSICAL
 from boundid.sets import Box
 from boundid.sets.constraints import pseudo_inertia
 from boundid.sets.physical import ConstrainedEllipsoid, PhysicalSet, physical_margin
+from planar_urdf import planar_arm_urdf
 
 # ---------------------------------------------------------------------- data
 
@@ -46,28 +47,9 @@ def h4_data(N=100, e=2.0, seed=0):
     return robot, W, W @ robot.theta_true + rng.uniform(-e, e, W.shape[0])
 
 
-def planar_urdf(tmp_path):
-    """The direct-drive arm as a 2-link URDF (as in test_urdf.py)."""
-    P = PHYSICAL
-
-    def link(name, m, lc, I):
-        return (f'<link name="{name}"><inertial><origin xyz="0 0 {-lc}"/><mass value="{m}"/>'
-                f'<inertia ixx="{I}" ixy="0" ixz="0" iyy="{I}" iyz="0" izz="{I / 10}"/></inertial></link>')
-
-    def joint(name, parent, child, z, b, fc):
-        return (f'<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/>'
-                f'<origin xyz="0 0 {-z}"/><axis xyz="1 0 0"/><limit lower="-3.14" upper="3.14" velocity="6" '
-                f'effort="200"/><dynamics damping="{b}" friction="{fc}"/></joint>')
-    body = (link("l1", P["m1"], P["lc1"], P["I1"]) + link("l2", P["m2"], P["lc2"], P["I2"])
-            + joint("j1", "base", "l1", 0.0, P["b1"], P["fc1"]) + joint("j2", "l1", "l2", P["l1"], P["b2"], P["fc2"]))
-    path = tmp_path / "planar_arm.urdf"
-    path.write_text(f'<robot name="r"><link name="base"/>{body}</robot>')
-    return path
-
-
 @pytest.fixture
 def planar(tmp_path):
-    return BaseParameterModel(UrdfRobot(planar_urdf(tmp_path), gravity=[0.0, 0.0, -PHYSICAL["g"]]))
+    return BaseParameterModel(UrdfRobot(planar_arm_urdf(tmp_path), gravity=[0.0, 0.0, -PHYSICAL["g"]]))
 
 
 def urdf_data(view, N=80, e=0.5, seed=1):

@@ -120,10 +120,11 @@ def test_abilities_have_the_declared_types(name):
     """Reference: the defaults of RobotModel: experiments among the known ones; a workspace
     measure >= 0; the Options dataclass rebuilds the default robot."""
     m = make_robot(name)
-    assert set(m.experiments) <= {"open_loop", "closed_loop"}
+    assert set(m.experiments) <= {"open_loop", "closed_loop", "tracking"}
     q = _states(m, 4)[0]
     assert m.workspace_excursion(q) >= 0.0
     assert m.outside_workspace(q) is None
     assert m.rest_position().shape == (m.n_joints,) and m.outside_workspace(m.rest_position()[None]) is None
     assert m.limits is None or m.limits.effort.shape == (m.n_joints,)
-    np.testing.assert_array_equal(type(m).from_options(type(m).Options()).theta_true, m.theta_true)
+    entry = ROBOTS[name]
+    np.testing.assert_array_equal(entry.from_options(entry.Options()).theta_true, m.theta_true)

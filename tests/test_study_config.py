@@ -203,12 +203,20 @@ def test_recording_cells_are_named_by_column_and_row(tmp_path):
 
 def test_a_study_names_any_urdf_robot(tmp_path):
     """Reference: example-robot-data's panda URDF (7 arm joints, 10 inertial parameters per link
-    plus viscous and Coulomb friction per joint); a source that is neither a name nor a file is
-    refused naming the example robots."""
+    plus viscous and Coulomb friction per joint), identified by default in its base parameters
+    (independent count: the rank of the standard regressor over random states); a source that is
+    neither a name nor a file is refused naming the example robots."""
     text = MINIMAL.replace('model = "direct_drive"', 'model = "urdf"\noptions = { source = "panda" }')
     text = text.replace('source = "simulate"', 'source = "simulate"\nduration_s = 30.0')
     cfg = load_study(_write(tmp_path, text))
     model = make_robot(cfg.robot, cfg.robot_options)
-    assert model.n_joints == 7 and model.p == 7 * 12
+    assert model.n_joints == 7 and model.robot.p == 7 * 12
+    rng = np.random.default_rng(0)
+    lim = model.limits
+    W = model.robot.regressor(lim.sample_positions(rng, 60), rng.uniform(-1, 1, (60, 7)),
+                              rng.uniform(-1, 1, (60, 7))).reshape(-1, model.robot.p)
+    assert model.p == np.linalg.matrix_rank(W) < model.robot.p
+    standard = make_robot(cfg.robot, {**cfg.robot_options, "parameters": "standard"})
+    assert standard.p == 7 * 12
     with pytest.raises(StudyError, match=r"robot.options for urdf: unknown robot 'nao'.*'panda'"):
         load_study(_write(tmp_path, text.replace('"panda"', '"nao"')))

@@ -30,6 +30,7 @@ from boundid.models.base_parameters import BaseParameterModel, base_parameters
 from boundid.models.direct_drive import PHYSICAL
 from boundid.models.urdf import EXAMPLE_ROBOTS, UrdfRobot, example_robots_dir
 from boundid.models.urdf_export import parameter_table, write_parameters, write_urdf
+from planar_urdf import planar_arm_urdf
 
 ARMS = ["ur5", "panda"]
 
@@ -314,22 +315,6 @@ def test_base_parameters_of_the_direct_drive_arm_are_its_own():
 
 
 # -- a 2-link URDF against the built-in direct-drive arm ---------------------------------------
-def planar_arm_urdf(tmp_path, P=PHYSICAL):
-    """The direct-drive arm as a URDF: joints about x, links hanging along -z at q = 0, COMs on the link axis."""
-    def link(name, m, lc, I):
-        return (f'<link name="{name}"><inertial><origin xyz="0 0 {-lc}"/><mass value="{m}"/>'
-                f'<inertia ixx="{I}" ixy="0" ixz="0" iyy="{I}" iyz="0" izz="{I / 10}"/></inertial></link>')
-
-    def joint(name, parent, child, z, b, fc):
-        return (f'<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/>'
-                f'<origin xyz="0 0 {-z}"/><axis xyz="1 0 0"/>'
-                f'<limit lower="-3.14" upper="3.14" velocity="6" effort="200"/>'
-                f'<dynamics damping="{b}" friction="{fc}"/></joint>')
-    body = (link("l1", P["m1"], P["lc1"], P["I1"]) + link("l2", P["m2"], P["lc2"], P["I2"])
-            + joint("j1", "base", "l1", 0.0, P["b1"], P["fc1"]) + joint("j2", "l1", "l2", P["l1"], P["b2"], P["fc2"]))
-    return write(tmp_path, body, "planar_arm.urdf")
-
-
 @pytest.fixture
 def planar(tmp_path):
     robot = UrdfRobot(planar_arm_urdf(tmp_path), gravity=[0.0, 0.0, -PHYSICAL["g"]])
@@ -348,8 +333,9 @@ def test_planar_urdf_matches_the_direct_drive_arm(planar):
     np.testing.assert_allclose(view.inverse_dynamics(q, qd, qdd), arm.inverse_dynamics(q, qd, qdd), atol=1e-10)
     np.testing.assert_allclose(view.mass_matrix(q), arm.mass_matrix(q), atol=1e-12)
     assert np.ptp(view.energy(q, qd) - arm.energy(q, qd)) < 1e-10
-    names = view.param_names
+    names = view.param_definitions
     assert names == ("my1", "mz1 - 0.45 m2", "Ixx1 + 0.2025 m2", "my2", "mz2", "Ixx2", "fv1", "fv2", "fc1", "fc2")
+    assert view.param_names == ("my1", "mz1R", "Ixx1R", "my2", "mz2", "Ixx2", "fv1", "fv2", "fc1", "fc2")
     i = {nm.split()[0]: k for k, nm in enumerate(names)}
     A = np.zeros((9, 10))
     A[0, [i["Ixx1"], i["Ixx2"]]] = 1.0

@@ -60,14 +60,15 @@ DESCRIPTIONS = {
     "experiment.measured.columns.q": "Joint positions [rad], one column per joint, in the model's joint order.",
     "experiment.measured.columns.tau": "Joint torques [N m], one column per joint, as many as q.",
     "experiment.control": "\"open_loop\": the direct-drive paper's torques (31)-(32); \"closed_loop\": PI "
-                          "control along a Fourier-series trajectory (the H4 experiment).",
+                          "control along a Fourier-series trajectory (the H4 experiment); \"tracking\": a "
+                          "Fourier trajectory within the joint limits tracked by computed torque + PID (URDF arms).",
     "experiment.duration_s": "Length of the identification experiment [s].",
     "experiment.sample_period_s": "Sample period h of the recording [s].",
     "experiment.coulomb_width_rad_s": "Simulation only: tanh(qd / width) stands for sign(qd) [rad/s].",
     "experiment.structural_error": "Scale of the robot behaviour the identification model leaves out "
-                                   "(closed loop; 0: none, 1: the simulated robot as built).",
+                                   "(H4 closed loop; 0: none, 1: the simulated robot as built).",
     "experiment.validation_duration_s": "Length of a second, different trajectory for cross-validation [s] "
-                                        "(closed loop; 0: none).",
+                                        "(closed loop and tracking; 0: none).",
     "experiment.options": "Settings of the closed-loop experiment; each option's default is listed below.",
     "experiment.noise": "What the measurement adds.",
     "experiment.noise.encoder_counts_per_rev": "Encoder resolution (e.g. 65536 for 16 bits); absent: exact angles.",
@@ -110,6 +111,9 @@ DESCRIPTIONS = {
     "exact.lp_bounds": "Compute the exact parameter bounds (2p LPs).",
     "exact.sdp": "SDP ellipsoids to compute: outer (S-procedure upper bound on the minimum-volume ellipsoid), "
                  "inner (largest inscribed), john.",
+    "exact.volume_bracket": "With the outer and inner SDPs: bracket ln vol of the minimum-volume outer ellipsoid "
+                            "(support LPs of P; its cost grows fast with p), so each set's excess over it is "
+                            "bracketed on the page.",
     "exact.projections": "Pairs of parameter names whose 2-D projections of the sets are drawn.",
     "paper": "The paper's published values for the page's comparison table (free-form table).",
     "campaign": "A Monte Carlo campaign (boundid campaign): replicates of noise scenarios.",

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from boundid._validation import as_vector
+from boundid._validation import as_float_array, as_vector
 from boundid.errors import InputError
 from boundid.experiments.measurement import quantize_angle
 
@@ -109,7 +109,8 @@ def zoh_step(robot, q, qd, tau, dt: float, substeps: int = 4, coulomb_width: flo
 
 def simulate_closed_loop(robot, reference, duration: float, controller: JointPID, fs_hz: float = 1000.0,
                          amplifier_gain=1.5, torque_limit=15.0, counts_per_rev: int = 65536,
-                         substeps: int = 4, coulomb_width: float = 0.01, q0=None) -> ClosedLoopRun:
+                         substeps: int = 4, coulomb_width: float = 0.01, q0=None,
+                         feedforward=None) -> ClosedLoopRun:
     """Track ``reference`` (an object with ``evaluate(t) -> (q, qd, qdd)``) for ``duration`` s.
 
     amplifier_gain : G_T, N m per unit of current reference; torque_limit : N m (+-15 for the H4);
@@ -117,7 +118,8 @@ def simulate_closed_loop(robot, reference, duration: float, controller: JointPID
     counts_per_rev : encoder resolution; substeps : RK4 steps per sample (4 keeps the tanh Coulomb
     friction of width ``coulomb_width`` rad/s stable and the angle error below 1e-7 rad after 40
     samples against solve_ivp, see tests/test_h4_experiment.py); q0 : initial angles (default:
-    the reference at t = 0, at rest).
+    the reference at t = 0, at rest); feedforward : (N, n) N m added to the PID torque before the
+    saturation at each sample (e.g. the computed torque of the reference), default none.
     """
     n = robot.n_joints
     gain, limit = (np.broadcast_to(np.asarray(v, float), (n,)) if np.ndim(v) == 0 else as_vector(v, name, n)
@@ -131,6 +133,10 @@ def simulate_closed_loop(robot, reference, duration: float, controller: JointPID
     h = 1.0 / fs_hz
     t = np.arange(int(round(duration * fs_hz))) * h
     q_des, qd_des, _ = reference.evaluate(t)
+    ff = np.zeros((len(t), n)) if feedforward is None else as_float_array(feedforward, "feedforward")
+    if ff.shape != (len(t), n):
+        raise InputError(f"feedforward must have shape ({len(t)}, {n}) (one torque per sample and joint), got "
+                         f"{ff.shape}.")
     q = np.array(q_des[0] if q0 is None else as_vector(q0, "q0", n), float)
     qd = np.zeros(n)
     Q, QD, QM, V, SAT = (np.empty((len(t), n)) for _ in range(5))
@@ -144,7 +150,7 @@ def simulate_closed_loop(robot, reference, duration: float, controller: JointPID
         v_est = (qm - q_prev) / h
         q_prev = qm
         e = q_des[k] - qm
-        u = controller.kp * e + controller.ki * integ + controller.kd * (qd_des[k] - v_est)
+        u = ff[k] + controller.kp * e + controller.ki * integ + controller.kd * (qd_des[k] - v_est)
         v = u / gain
         sat = np.abs(v) >= v_max
         integ += np.where(sat, 0.0, e * h)  # conditional integration (anti-windup)

@@ -94,7 +94,20 @@ class RobotModel(ABC):
         """The robot built from an instance of :attr:`Options` (default: its fields as keywords)."""
         return cls(**{f: getattr(options, f) for f in options.__dataclass_fields__})
 
+    @property
+    def param_definitions(self) -> tuple[str, ...]:
+        """What each parameter is, when its name is a short symbol (base parameters: the
+        regrouped combination of standard ones); default: the names themselves."""
+        return tuple(self.param_names)
+
     # -- abilities (defaults; a robot overrides what it offers) ----------------------------
+    def export_identified(self, theta, folder, base=None) -> list:
+        """Write identified parameters theta (p,) in the robot's own description formats into
+        ``folder`` (a URDF robot: a copy of its URDF and YAML/CSV tables, with the base parameters
+        ``base`` (:class:`boundid.models.base_parameters.BaseParameters`) beside); returns the paths
+        written (default: none, the study's tables already hold theta)."""
+        return []
+
     @property
     def experiments(self) -> tuple[str, ...]:
         """The simulated experiments this robot supports: "open_loop" (the direct-drive paper's

@@ -17,10 +17,11 @@ Numerical method: stack the regressor over random states into W (N n x p).
 
    and the base regressor is Y P1, the kept columns of Y.
 
-Each base parameter is named after its kept standard parameter plus the regrouped ones, e.g.
-``Iyy2 + 0.1806 m3 + 0.1806 m4`` (coefficients rounded to 4 significant digits in the name only;
-they carry lengths, m or m^2, and the unit is the kept parameter's). The state sampling is seeded:
-the same robot always gives the same base parameters.
+Each base parameter has a symbol, its kept standard parameter with the suffix R when others are
+regrouped into it (``Iyy2R``, the convention of [GautierKhalil1990]), and a definition, the
+combination itself, e.g. ``Iyy2 + 0.1806 m3 + 0.1806 m4`` (coefficients rounded to 4 significant
+digits in the text only; they carry lengths, m or m^2, and the unit is the kept parameter's).
+The state sampling is seeded: the same robot always gives the same base parameters.
 
 :class:`BaseParameterModel` is the robot seen in base parameters: a :class:`RobotModel` whose
 theta is beta, so that every estimator and the exact LP/SDP bounds run on an identifiable vector.
@@ -60,7 +61,8 @@ class BaseParameters:
 
     K : (r, p)            regrouping matrix (K[:, independent] = identity)
     independent : (r,)    indices of the kept standard parameters (P1), in theta's order
-    names, units : (r,)   readable combination names and the units of the kept parameters
+    names, units : (r,)   definitions (the combinations, readable) and the units of the kept parameters
+    symbols : (r,)        short names: the kept parameter, suffixed R when others regroup into it
     tol : float           rank tolerance on |R_ii| / |R_11|
     r_diag : (p,)         |R_ii| / |R_11| of the pivoted QR (the gap shows how clear the rank is)
     """
@@ -71,6 +73,7 @@ class BaseParameters:
     units: tuple[str, ...]
     tol: float
     r_diag: np.ndarray
+    symbols: tuple[str, ...]
 
     @property
     def rank(self) -> int:
@@ -154,7 +157,8 @@ def base_parameters(robot: RobotModel, n_states: int | None = None, tol: float =
     K[:, dep] = Kd
     names = tuple(_combination_name(K[i], tuple(robot.param_names), keep[i]) for i in range(r))
     units = tuple(robot.param_units[j] for j in keep)
-    return BaseParameters(K, keep, names, units, float(tol), r_diag)
+    symbols = tuple(robot.param_names[keep[i]] + ("R" if np.count_nonzero(K[i]) > 1 else "") for i in range(r))
+    return BaseParameters(K, keep, names, units, float(tol), r_diag, symbols)
 
 
 class BaseParameterModel(RobotModel):
@@ -174,7 +178,7 @@ class BaseParameterModel(RobotModel):
             raise InputError(f"base parameters for {self.base.K.shape[1]} standard parameters, robot has {robot.p}.")
         self.name = f"{robot.name}_base"
         self.n_joints = robot.n_joints
-        self.param_names = self.base.names
+        self.param_names = self.base.symbols
         self.param_units = self.base.units
         self.theta_true = self.base.base(robot.theta_true)
         K, prior = self.base.K, np.asarray(robot.theta_prior, float)
@@ -198,6 +202,33 @@ class BaseParameterModel(RobotModel):
         if own is None:
             raise InputError(f"{self.robot.name} declares no physical constraints on its standard parameters.")
         return own(**options).lifted(self.base.K, self.param_names)
+
+    @property
+    def param_definitions(self) -> tuple[str, ...]:
+        """What each base parameter is, in standard parameters (``Iyy2 + 0.1806 m3 ...``)."""
+        return self.base.names
+
+    # abilities of the robot it views (its simulations run on the robot's own truth)
+    @property
+    def experiments(self) -> tuple[str, ...]:
+        return self.robot.experiments
+
+    def rest_position(self) -> np.ndarray:
+        return self.robot.rest_position()
+
+    def zoh_stepper(self):
+        return self.robot.zoh_stepper()
+
+    def export_identified(self, theta, folder, base=None) -> list:
+        """The robot's export of :meth:`standard` (theta) with these base parameters: the dependent
+        standard parameters keep the robot's true (e.g. URDF) values, the kept ones carry theta."""
+        return self.robot.export_identified(self.standard(theta), folder, base=self.base)
+
+    def workspace_excursion(self, q, margin: float = 0.0) -> float:
+        return self.robot.workspace_excursion(q, margin)
+
+    def outside_workspace(self, q):
+        return self.robot.outside_workspace(q)
 
     def regressor(self, q, qd, qdd) -> np.ndarray:
         return self.robot.regressor(q, qd, qdd)[..., self._cols]

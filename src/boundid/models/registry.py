@@ -28,9 +28,13 @@ class UrdfEntry:
 
     @staticmethod
     def from_options(options: UrdfOptions) -> RobotModel:
+        from boundid.models.base_parameters import BaseParameterModel
         from boundid.models.urdf import UrdfRobot
 
-        return UrdfRobot.from_options(options)
+        if options.parameters not in ("base", "standard"):
+            raise InputError(f"parameters must be 'base' or 'standard', got {options.parameters!r}.")
+        robot = UrdfRobot.from_options(options)
+        return BaseParameterModel(robot) if options.parameters == "base" else robot
 
 
 ROBOTS: dict[str, type] = {  # RobotModel classes (the urdf entry builds a UrdfRobot)

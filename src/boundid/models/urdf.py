@@ -57,9 +57,10 @@ import numpy as np
 import pinocchio as pin
 
 from boundid._validation import as_float_array, as_vector
-from boundid.errors import InputError
+from boundid.errors import InputError, SolverError
 from boundid.models.base import RobotModel, coulomb, per_state
 from boundid.models.limits import JointLimits
+from boundid.models.urdf_export import link_inertial_parameters, write_parameters, write_urdf
 from boundid.models.urdf_options import EXAMPLE_ROBOTS, UrdfOptions
 from boundid.sets.constraints import PhysicalConstraints, constraints, linear_rows
 from boundid.sets.constraints import pseudo_inertia as pseudo_inertia_lmi
@@ -99,36 +100,6 @@ def resolve_urdf(source: str | Path) -> tuple[Path, tuple[str, ...] | None, str]
         return path, None, path.stem
     raise InputError(f"unknown robot {text!r}: give the path of a .urdf file or one of the example-robot-data "
                      f"arms {sorted(EXAMPLE_ROBOTS)}.")
-
-
-def link_inertial_parameters(inertial: ET.Element | None, link: str) -> np.ndarray:
-    """Dynamic parameters (10,) about the link frame of a URDF <inertial> element (zeros if absent or massless).
-
-    Every number is checked here: urdfdom only prints a console message for a malformed one and
-    loads the link with a zero inertia.
-    """
-    if inertial is None:
-        return np.zeros(10)
-
-    def numbers(tag: str, attr: str, default: str, size: int) -> np.ndarray:
-        e = inertial.find(tag)
-        text = default if e is None else e.get(attr, default)
-        try:
-            v = np.array(text.split(), float)
-        except ValueError:
-            v = np.array([])
-        if v.shape != (size,) or not np.all(np.isfinite(v)):
-            raise InputError(f"link {link!r}: <{tag} {attr}={text!r}> must be {size} finite number(s); fix the URDF.")
-        return v
-
-    xyz, rpy = numbers("origin", "xyz", "0 0 0", 3), numbers("origin", "rpy", "0 0 0", 3)
-    m = numbers("mass", "value", "0", 1)[0]
-    g = {k: numbers("inertia", k, "0", 1)[0] for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
-    if m == 0.0:
-        return np.zeros(10)
-    I_c = np.array([[g["ixx"], g["ixy"], g["ixz"]], [g["ixy"], g["iyy"], g["iyz"]], [g["ixz"], g["iyz"], g["izz"]]])
-    body = pin.SE3(pin.rpy.rpyToMatrix(rpy), xyz).act(pin.Inertia(m, np.zeros(3), I_c))
-    return body.toDynamicParameters()
 
 
 def _per_joint(x, what: str, n: int, default, signed: bool = False) -> np.ndarray:
@@ -232,7 +203,13 @@ class UrdfRobot(RobotModel):
 
     @classmethod
     def from_options(cls, options: UrdfOptions) -> UrdfRobot:
-        return cls(options.source)
+        """The robot of a study's robot.options (its standard parameters; see :func:`urdf_robot`)."""
+        if options.viscous < 0 or options.coulomb < 0 or options.armature < 0:
+            raise InputError(f"viscous, coulomb and armature must be >= 0, got {options.viscous}, {options.coulomb}, "
+                             f"{options.armature}.")
+        return cls(options.source, joints=options.joints or None, viscous=options.viscous or None,
+                   coulomb=options.coulomb or None, with_armature=options.armature > 0,
+                   armature=options.armature or None)
 
     def __init__(self, source: str | Path, joints: Sequence[str] | None = None, *, viscous=None, coulomb=None,
                  with_armature: bool = False, armature=None, with_offset: bool = False, offset=None,
@@ -578,3 +555,55 @@ class UrdfRobot(RobotModel):
                for ui, v, b, c, o in zip(u, qd, fv, fc, off, strict=True)]
         Q = self._config(np.array([q], float))[0] if self._unbounded.any() else np.array(q, float)
         return pin.aba(model, data, Q, np.array(qd, float), np.array(rhs)).tolist()
+
+    # -- abilities -------------------------------------------------------------------------
+    def export_identified(self, theta, folder, base=None) -> list[Path]:
+        """A copy of the URDF with the inertias and friction of theta (p,), and theta as YAML and CSV
+        (with the base parameters K theta when ``base`` is given); see :mod:`boundid.models.urdf_export`."""
+        folder = Path(folder)
+        stem = f"{self.name}_identified"
+        return [write_urdf(self, theta, folder / f"{stem}.urdf"),
+                write_parameters(self, theta, folder / f"{stem}.yaml", base),
+                write_parameters(self, theta, folder / f"{stem}.csv", base)]
+
+    @property
+    def experiments(self) -> tuple[str, ...]:
+        """The tracking experiment (:mod:`boundid.experiments.tracking`): an arm with joint limits."""
+        return ("tracking",)
+
+    def rest_position(self) -> np.ndarray:
+        """The middle of each joint range (0 for a joint without position limits)."""
+        return self.limits.middle()
+
+    def zoh_stepper(self):
+        """RK4 under a held torque with pinocchio's ABA on the true parameters, ``substeps`` steps per
+        hold interval; friction as in :meth:`forward_dynamics` (tanh of width ``coulomb_width``)."""
+        model, data = self._dynamics(self.theta_true)
+        th = self.theta_true
+        fv, fc = th[self._slices["fv"]], th[self._slices["fc"]]
+        off = th[self._slices["off"]] if "off" in self._slices else np.zeros(self.n_joints)
+        unbounded = self._unbounded.any()
+
+        def acceleration(q, v, tau, width):
+            friction = fv * v + fc * (np.tanh(v / width) if width > 0 else np.sign(v)) + off
+            Q = self._config(q[None])[0] if unbounded else q
+            return pin.aba(model, data, Q, v, tau - friction)
+
+        def step(q, qd, tau, dt, substeps, coulomb_width, hint):
+            hs = dt / substeps
+            for _ in range(substeps):  # classical RK4 on (q, qd)
+                a1 = acceleration(q, qd, tau, coulomb_width)
+                v2 = qd + 0.5 * hs * a1
+                a2 = acceleration(q + 0.5 * hs * qd, v2, tau, coulomb_width)
+                v3 = qd + 0.5 * hs * a2
+                a3 = acceleration(q + 0.5 * hs * v2, v3, tau, coulomb_width)
+                v4 = qd + hs * a3
+                a4 = acceleration(q + hs * v3, v4, tau, coulomb_width)
+                q, qd = q + hs / 6 * (qd + 2 * v2 + 2 * v3 + v4), qd + hs / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
+            if not math.isfinite(q.sum() + qd.sum()):
+                raise SolverError(f"the simulated {self.name} diverged (non-finite state) within {dt:g} s; lower "
+                                  "the controller gains, raise substeps or widen coulomb_width.")
+            return q, qd, None
+
+        return step
+

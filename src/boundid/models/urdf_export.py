@@ -1,4 +1,6 @@
-"""Identified parameters written out: into a copy of the URDF, and as CSV or YAML tables.
+"""URDF <inertial> tags read and written: the parameters of a link as the file gives them, and
+identified parameters written out into a copy of the URDF and as CSV or YAML tables (``robot`` is
+a :class:`boundid.models.urdf.UrdfRobot`).
 
 URDF: pinocchio merges into body j every link rigidly attached to joint j's child link (fixed
 joints, and the joints locked by ``joints=``). The identified body j is written into the child
@@ -28,7 +30,36 @@ import yaml
 from boundid._validation import as_vector
 from boundid.errors import InputError
 from boundid.models.base_parameters import BaseParameters
-from boundid.models.urdf import UrdfRobot, link_inertial_parameters
+
+
+def link_inertial_parameters(inertial: ET.Element | None, link: str) -> np.ndarray:
+    """Dynamic parameters (10,) about the link frame of a URDF <inertial> element (zeros if absent or massless).
+
+    Every number is checked here: urdfdom only prints a console message for a malformed one and
+    loads the link with a zero inertia.
+    """
+    if inertial is None:
+        return np.zeros(10)
+
+    def numbers(tag: str, attr: str, default: str, size: int) -> np.ndarray:
+        e = inertial.find(tag)
+        text = default if e is None else e.get(attr, default)
+        try:
+            v = np.array(text.split(), float)
+        except ValueError:
+            v = np.array([])
+        if v.shape != (size,) or not np.all(np.isfinite(v)):
+            raise InputError(f"link {link!r}: <{tag} {attr}={text!r}> must be {size} finite number(s); fix the URDF.")
+        return v
+
+    xyz, rpy = numbers("origin", "xyz", "0 0 0", 3), numbers("origin", "rpy", "0 0 0", 3)
+    m = numbers("mass", "value", "0", 1)[0]
+    g = {k: numbers("inertia", k, "0", 1)[0] for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+    if m == 0.0:
+        return np.zeros(10)
+    I_c = np.array([[g["ixx"], g["ixy"], g["ixz"]], [g["ixy"], g["iyy"], g["iyz"]], [g["ixz"], g["iyz"], g["izz"]]])
+    body = pin.SE3(pin.rpy.rpyToMatrix(rpy), xyz).act(pin.Inertia(m, np.zeros(3), I_c))
+    return body.toDynamicParameters()
 
 
 def _set_inertial(link: ET.Element, pi: np.ndarray, label: str) -> None:
@@ -48,7 +79,7 @@ def _set_inertial(link: ET.Element, pi: np.ndarray, label: str) -> None:
     ET.SubElement(inertial, "inertia", **I)
 
 
-def write_urdf(robot: UrdfRobot, theta, path: str | Path) -> Path:
+def write_urdf(robot, theta, path: str | Path) -> Path:
     """Write a copy of ``robot``'s URDF with the inertias and friction of ``theta`` (p,); returns the path."""
     theta = as_vector(theta, "theta", robot.p)
     out = Path(path)
@@ -75,7 +106,7 @@ def write_urdf(robot: UrdfRobot, theta, path: str | Path) -> Path:
     return out
 
 
-def parameter_table(robot: UrdfRobot, theta, base: BaseParameters | None = None) -> pd.DataFrame:
+def parameter_table(robot, theta, base: BaseParameters | None = None) -> pd.DataFrame:
     """Rows (set, name, unit, value): the standard vector ``theta`` (p,), then K theta if ``base`` is given."""
     theta = as_vector(theta, "theta", robot.p)
     rows = [("standard", nm, u, float(v)) for nm, u, v in zip(robot.param_names, robot.param_units, theta, strict=True)]
@@ -84,7 +115,7 @@ def parameter_table(robot: UrdfRobot, theta, base: BaseParameters | None = None)
     return pd.DataFrame(rows, columns=["set", "name", "unit", "value"])
 
 
-def write_parameters(robot: UrdfRobot, theta, path: str | Path, base: BaseParameters | None = None) -> Path:
+def write_parameters(robot, theta, path: str | Path, base: BaseParameters | None = None) -> Path:
     """Write :func:`parameter_table` to ``path``: CSV (.csv) or YAML (.yaml/.yml, with robot, URDF, joints)."""
     out = Path(path)
     table = parameter_table(robot, theta, base)

@@ -25,7 +25,22 @@ EXAMPLE_ROBOTS: dict[str, tuple[str, tuple[str, ...] | None]] = {
 
 @dataclass(frozen=True)
 class UrdfOptions:
-    """robot.options of ``model = "urdf"``: ``source``, a name of :data:`EXAMPLE_ROBOTS` (e.g. "ur5",
-    "panda") or the path of a .urdf file (relative to the folder the command runs in)."""
+    """robot.options of ``model = "urdf"``.
+
+    source : a name of :data:`EXAMPLE_ROBOTS` (e.g. "ur5", "panda") or the path of a .urdf file
+        (relative to the folder the command runs in)
+    joints : names of the joints to identify (default []: every arm joint); the others are locked
+        at their neutral position and their links merged into the ones carrying them
+    parameters : "base" (identifiable base parameters, :class:`boundid.models.base_parameters.BaseParameterModel`:
+        what a study identifies) or "standard" (10 per link + friction, rank deficient)
+    viscous, coulomb : true friction of every joint, N m s/rad and N m (URDFs rarely carry it;
+        0 keeps the file's <dynamics damping=... friction=...>)
+    armature : true motor inertia seen at every joint, kg m^2 (> 0 adds the parameters Ia_j)
+    """
 
     source: str = "ur5"
+    joints: tuple = ()
+    parameters: str = "base"
+    viscous: float = 0.0
+    coulomb: float = 0.0
+    armature: float = 0.0

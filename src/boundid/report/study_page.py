@@ -84,8 +84,8 @@ def describe(cfg) -> str:
                 + (f"{exp.encoder_counts_per_rev} counts/rev" if exp.encoder_counts_per_rev else "exact")
                 + (f"; torque noise {noise.kind}, level {noise.level:g} N m" if noise.kind != "none" else "")
                 + (f"; structural error x {exp.structural_error:g}" if exp.control == "closed_loop" else "")
-                + (f"; a {exp.validation_duration_s:g} s cross-validation trajectory" if exp.control == "closed_loop"
-                   and exp.validation_duration_s > 0 else "") + ".")
+                + (f"; a {exp.validation_duration_s:g} s cross-validation trajectory"
+                   if exp.control in ("closed_loop", "tracking") and exp.validation_duration_s > 0 else "") + ".")
     pre = (f" Low-pass {pp.lowpass_cutoff_hz:g} Hz before the inverse-dynamic differences"
            if pp.lowpass_cutoff_hz and "inverse_dynamic" in cfg.regressions else "")
     if any(rn in cfg.regressions for rn in ("filtered_dynamic", "filtered_power")):
@@ -217,9 +217,11 @@ def _validation_section(page: Page, r: StudyResult) -> None:
         n = r.model.n_joints
         measured = reg.y.reshape(-1, n)
         t = reg.t.reshape(-1, n)[:, 0]
-        page.section("Cross-validation: torque bounds of eq. (37)",
+        eq = " of eq. (37)" if r.config.robot == "h4" else ""  # the H4 paper's equation
+        page.section(f"Cross-validation: torque bounds{eq}",
                      "On a trajectory not used for identification, the guaranteed torque bounds "
-                     "y = w^T theta_hat +- sqrt(w^T M^-1 w) of the OBE, beside the 95 % prediction band of WLS.")
+                     "y = w^T theta_hat +- sqrt(w^T M^-1 w) of the OBE ([H4Paper] eq. 37), beside the 95 % "
+                     "prediction band of WLS.")
         rows = {lab: {"kind": b.kind, "samples outside [%]": 100 * b.outside_fraction(measured),
                       "mean half-width [N m]": float(np.mean(b.half_width))} for lab, b in bands.items()}
         page.table(pd.DataFrame.from_dict(rows, orient="index").rename_axis("estimate"),
@@ -229,7 +231,7 @@ def _validation_section(page: Page, r: StudyResult) -> None:
                  if lab != main and b.kind == "statistical"}
         page.figure(F.torque_bounds(t, measured, bands[main].lower, bands[main].upper,
                                     band_label=f"{main} bounds", extra_bands=extra),
-                    f"Measured torque on the validation trajectory inside the {main} bounds (eq. 37).",
+                    f"Measured torque on the validation trajectory inside the {main} bounds.",
                     name="torque_bounds")
 
 
@@ -324,8 +326,12 @@ def _exact_section(page: Page, r: StudyResult, guard: _Guard) -> None:
         page.table(summary, "Every set estimator against the exact polytope: contains it (certified by its vertices "
                    "and support), interval width over the exact LP width (mean and max over the parameters, "
                    "intervals intersected with the prior box), "
-                   "ln volume per dimension (the SDP inner ellipsoid bounds any outer set from below), time per "
-                   "sample and the numbers the set keeps.", float_format="{:.3g}", name="set_comparison")
+                   "ln volume per dimension (the SDP inner ellipsoid bounds any outer set from below), "
+                   + ("its excess over the minimum-volume outer ellipsoid, bracketed, " if r.exact.bracket is not None
+                      else "(excess over the minimum-volume outer ellipsoid not bracketed: " + (
+                          "exact.volume_bracket = false in the study file) " if not r.config.exact.volume_bracket
+                          else "no bracket, see above) "))
+                   + "time per sample and the numbers the set keeps.", float_format="{:.3g}", name="set_comparison")
         page.table(per_param, "Width / exact LP width per parameter (1 = exact).", float_format="{:.3g}",
                    name="width_over_exact")
         with guard("figure", "width ratios"):
@@ -429,6 +435,8 @@ def findings(r: StudyResult, verdicts: list[Claim], failures: list[Failure]) -> 
                 f"{'holds' if ex.truth_violations == 0 else 'BROKEN'}: max |error| / e_max = "
                 f"{ex.truth_error_ratio:.3g}, {ex.truth_violations} of {n_rows} rows ({share:.3g} %) over "
                 f"e_max = {ex.e_max:g}")
+        if truth is not None and ex.bounds is not None:
+            out["truth inside"] = _truth_inside(r, truth[0])
         second = r.validation.get("second_truth")
         if second is not None and not second.represents:
             out["model's best approximation"] = (f"max residual {second.max_residual:.3g} N m on noise-free data "
@@ -459,6 +467,22 @@ def findings(r: StudyResult, verdicts: list[Claim], failures: list[Failure]) -> 
                                      "this run's OBE outcomes may differ between machines")
     out["failures"] = "none" if not failures else f"{len(failures)}, listed in the last section"
     return out
+
+
+def _truth_inside(r: StudyResult, truth: np.ndarray) -> str:
+    """Whether the truth lies in the exact LP bounds and in each guaranteed set (they must contain it
+    when the bound holds at the truth)."""
+    ex = r.exact
+    tol = 1e-9 * np.maximum(1.0, np.abs(truth))
+    in_lp = bool(np.all((ex.bounds.lo - tol <= truth) & (truth <= ex.bounds.hi + tol)))
+    sets = _guaranteed_sets(r)
+    missed = [lab for lab, e in sets.items() if not e.set.contains(truth)]
+    text = (f"exact LP bounds {'yes' if in_lp else 'NO'}; "
+            + (f"every guaranteed set ({len(sets)})" if not missed else
+               f"{len(sets) - len(missed)} of {len(sets)} guaranteed sets (not: {', '.join(missed)})"))
+    if ex.truth_violations:
+        text += " (no guarantee applies: the bound is broken at the truth)"
+    return text
 
 
 def _verdict_section(page: Page, r: StudyResult, verdicts: list[Claim]) -> None:
@@ -581,6 +605,8 @@ def _page(r: StudyResult) -> Page:
                "The run's set-up. Figures from iterative solvers and long recursions (OBE update counts, volumes, "
                "LP/SDP optima) may differ in their last digits between machines (BLAS, CPU); on one machine the "
                "same seed gives the same numbers.", name="setup")
+    with guard("section", "base parameters"):
+        _base_parameter_section(page, r)
     paper = {"h4": _paper_section_h4, "direct_drive": _paper_section_direct_drive}.get(cfg.robot)
     if paper is not None and cfg.experiment.source == "simulate":
         with guard("section", "paper's table"):
@@ -666,6 +692,58 @@ def _sweep_section(page: Page, r: StudyResult) -> None:
                float_format="{:.3g}", name="obe_breakdown")
 
 
+def _base_parameter_section(page: Page, r: StudyResult) -> None:
+    """What each parameter is, when the model names combinations by symbols (base parameters)."""
+    m = r.model
+    if tuple(m.param_definitions) == tuple(m.param_names):
+        return
+    page.section("Base parameters", folded=f"{m.p} identifiable combinations of the standard parameters: what each "
+                                            "symbol stands for")
+    page.text("The regressor of the standard parameters is rank deficient; its independent columns (QR with column "
+              "pivoting on random states [GautierKhalil1990]) define the base parameters. A symbol ending in R is "
+              "the standard parameter with others regrouped into it; every estimator and every exact bound on this "
+              "page is in these parameters.")
+    table = pd.DataFrame({"definition": list(m.param_definitions), "unit": list(m.param_units)},
+                         index=pd.Index(list(m.param_names), name="parameter"))
+    truth = _truth(r)
+    if truth is not None:
+        table[truth[1]] = truth[0]
+    page.table(table, "Base parameters: symbol, definition in standard parameters, unit"
+               + (" and true value." if truth is not None else "."), name="base_parameters")
+
+
+def _exported_estimate(r: StudyResult):
+    """(label, Estimate) exported to the robot's own formats: the WLS (else the first statistical)
+    estimate on the exact regression, or None."""
+    reg = r.config.exact.regression
+    found = [(lab, e) for (lab, rn), e in r.estimates.items() if rn == reg and e.kind == "statistical"]
+    found.sort(key=lambda item: item[1].method != "wls")
+    return found[0] if found else None
+
+
+def _export_section(page: Page, r: StudyResult, folder: Path) -> None:
+    """Write the exported estimate in the robot's own formats into ``folder`` and say so on the page."""
+    chosen = _exported_estimate(r)
+    if chosen is None:
+        return
+    label, est = chosen
+    try:
+        paths = r.model.export_identified(est.center, folder)
+    except RUN_FAILURES as exc:
+        page.section("Identified parameters, exported",
+                     f"Exporting the {label} estimate failed and nothing was written: {exc}")
+        return
+    if not paths:
+        return
+    for path in paths:
+        page.attach(path.name, f"{folder.name}/{path.name}", f"{label} estimate, exported")
+    page.section("Identified parameters, exported",
+                 f"The {label} centre on the {r.config.exact.regression} regression, in the robot's own formats: "
+                 + ", ".join(p.name for p in paths) + f" (in {folder.name}/). The base parameters are mapped to "
+                 "standard ones with every dependent parameter at its URDF value, so that the copy reproduces the "
+                 "identified torques; the tables list both sets.")
+
+
 def write_study_report(r: StudyResult, out_dir: str | Path) -> Path:
     """Write ``out_dir/index.html`` (self-contained) with figures/, tables/, summary.md and results.csv.
 
@@ -677,5 +755,10 @@ def write_study_report(r: StudyResult, out_dir: str | Path) -> Path:
     page = study_page(r)
     with replace_folder(out_dir, keep=("campaign",)) as tmp:
         r.table.to_csv(tmp / "results.csv", index=False)
+        export = tmp / "export"
+        export.mkdir()
+        _export_section(page, r, export)
+        if not any(export.iterdir()):
+            export.rmdir()
         page.write(tmp / "index.html")
     return out_dir / "index.html"

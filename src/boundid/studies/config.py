@@ -21,7 +21,7 @@ from boundid.estimators.registry import METHODS
 from boundid.experiments.measurement import TorqueNoise
 from boundid.models import registry as robots
 from boundid.studies import sizing
-from boundid.studies.registry import closed_loop_options, make_robot
+from boundid.studies.registry import experiment_options, make_robot
 from boundid.studies.schema import Section, read_toml
 
 REGRESSIONS = ("inverse_dynamic", "filtered_dynamic", "supplied_energy", "filtered_power")
@@ -44,7 +44,7 @@ class MeasuredData:
 @dataclass(frozen=True)
 class ExperimentConfig:
     source: str  # "simulate" | "measured"
-    control: str = "open_loop"  # "open_loop" (paper 001 torques) | "closed_loop" (PI, Fourier trajectory)
+    control: str = "open_loop"  # "open_loop" (paper 001 torques) | "closed_loop" (H4 PI) | "tracking" (URDF arms)
     duration_s: float = 10.0
     sample_period_s: float = 0.0025
     coulomb_width_rad_s: float = 0.01
@@ -115,6 +115,7 @@ class ExactConfig:
     sdp: tuple[str, ...] = ()
     projections: tuple[tuple[str, str], ...] = ()
     e_max: float | None = None
+    volume_bracket: bool = True  # bracket the minimum-volume outer ellipsoid (needs sdp outer and inner)
 
 
 @dataclass(frozen=True)
@@ -259,7 +260,7 @@ def _experiment(sec: Section, base: Path) -> ExperimentConfig:
     noise.check_unknown()
     exp = ExperimentConfig(
         source="simulate",
-        control=sec.str("control", "open_loop", choices=("open_loop", "closed_loop")),
+        control=sec.str("control", "open_loop", choices=("open_loop", "closed_loop", "tracking")),
         duration_s=sec.float("duration_s", 10.0, lo=0.0, strict_lo=True),
         sample_period_s=sec.float("sample_period_s", 0.0025, lo=0.0, strict_lo=True),
         coulomb_width_rad_s=sec.float("coulomb_width_rad_s", 0.01, lo=0.0),
@@ -268,7 +269,7 @@ def _experiment(sec: Section, base: Path) -> ExperimentConfig:
         structural_error=sec.float("structural_error", 0.0, lo=0.0),
         validation_duration_s=sec.float("validation_duration_s", 0.0, lo=0.0),
     )
-    known = closed_loop_options() if exp.control == "closed_loop" else {}
+    known = experiment_options(exp.control)
     exp = replace(exp, options=sec.options("options", known, f"the {exp.control.replace('_', '-')} experiment"))
     sec.check_unknown()
     return exp
@@ -280,12 +281,13 @@ def _check_size(cfg: StudyConfig, model) -> None:
     if exp.source != "simulate":
         return  # a recording is checked when it is read (boundid.studies.data)
     h, where = exp.sample_period_s, f"{cfg.file}: experiment"
-    if "inverse_dynamic" in cfg.regressions or exp.control == "closed_loop":
+    closed = exp.control in ("closed_loop", "tracking")
+    if "inverse_dynamic" in cfg.regressions or closed:
         sizing.check_cutoff(h, pp.lowpass_cutoff_hz, pp.decimation, f"{cfg.file}: preprocessing.lowpass_cutoff_hz")
     sizing.check_length(exp.duration_s, h, model.n_joints, model.p, cfg.regressions, pp.lowpass_cutoff_hz,
                         pp.decimation, f"{where}.duration_s")
     duration = exp.duration_s
-    if exp.control == "closed_loop" and exp.validation_duration_s > 0:  # the cross-validation trajectory
+    if closed and exp.validation_duration_s > 0:  # the cross-validation trajectory
         sizing.check_length(exp.validation_duration_s, h, model.n_joints, model.p, ("inverse_dynamic",),
                             pp.lowpass_cutoff_hz, pp.decimation, f"{where}.validation_duration_s")
         duration += exp.validation_duration_s
@@ -342,6 +344,7 @@ def load_study(path: str | Path) -> StudyConfig:
         sdp=tuple(ex.list("sdp", [], choices=SDP_SETS)),
         projections=tuple(tuple(pair) for pair in ex.list("projections", [], of=list)),
         e_max=ex.float("e_max", None, lo=0.0, strict_lo=True),
+        volume_bracket=ex.bool("volume_bracket", True),
     )
     for pair in exact.projections:
         if len(pair) != 2 or not all(isinstance(x, str) for x in pair):

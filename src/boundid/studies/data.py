@@ -51,6 +51,8 @@ def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> St
         return StudyData(recording=rec, info={"source": str(m.file)})
     if exp.control == "open_loop":
         return _open_loop(cfg, model, rng)
+    if exp.control == "tracking":
+        return _tracking(cfg, model, rng)
     recording, validation, info, clean_tau = closed_loop_data(cfg, model, rng)
     return StudyData(recording=recording, validation=validation, info=info, clean_tau=clean_tau)
 
@@ -67,3 +69,26 @@ def _open_loop(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) ->
     meas = measure(traj, exp.encoder_counts_per_rev, exp.torque_noise, rng)
     return StudyData(recording=Recording(t=meas.t, q=meas.q, tau=meas.tau), excitation=excitation,
                      info={"torque outliers": int(meas.info["outliers"].sum())})
+
+
+def _tracking(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:
+    """The tracking experiment of a serial arm (:mod:`boundid.experiments.tracking`)."""
+    from boundid.experiments.tracking import TrackingConfig, tracking_experiment
+
+    exp = cfg.experiment
+    if "tracking" not in model.experiments:
+        raise StudyError(f"{cfg.file}: experiment.control = 'tracking' needs an arm with joint limits (a URDF robot); "
+                         f"the {cfg.robot} model's experiments: {', '.join(model.experiments) or 'none'}.")
+    tcfg = TrackingConfig(duration_s=exp.duration_s, validation_duration_s=exp.validation_duration_s,
+                          fs_hz=1.0 / exp.sample_period_s, counts_per_rev=exp.encoder_counts_per_rev or 65536,
+                          coulomb_width=exp.coulomb_width_rad_s, torque_noise=exp.torque_noise,
+                          **exp.options)  # checked against registry.tracking_options() when the study was read
+    recs, info = tracking_experiment(model, rng, tcfg)
+
+    def recording(name: str) -> Recording | None:
+        r = recs.get(name)
+        return None if r is None else Recording(t=r.run.t, q=r.run.q_meas, tau=r.tau_meas)
+
+    return StudyData(recording=recording("identification"), validation=recording("validation"), info=info,
+                     clean_tau=recs["identification"].run.tau)
+

@@ -1,6 +1,6 @@
 """What a study file may name beside the estimators (:mod:`boundid.estimators.registry`) and the
 robots (:mod:`boundid.models.registry`): the regression models and the options of the closed-loop
-experiment; and :func:`make_robot`, the robot registry's factory with study-file errors.
+and tracking experiments; and :func:`make_robot`, the robot registry's factory with study-file errors.
 
 Each options table is described by {option: default}; the default gives the type a study file
 must write (see :meth:`boundid.studies.schema.Section.options`).
@@ -24,6 +24,19 @@ def closed_loop_options() -> dict:
     fields = {f.name: f.default for f in dataclasses.fields(H4ExperimentConfig)}
     return {k: fields[k] for k in ("amplifier_gain", "torque_limit", "bandwidth_hz", "substeps", "optimize_evals",
                                    "fast_period", "slow_fraction")}
+
+
+def tracking_options() -> dict:
+    """experiment.options of the tracking experiment (URDF arms): fields of TrackingConfig a study may set."""
+    from boundid.experiments.tracking import OPTIONS, TrackingConfig
+
+    fields = {f.name: f.default for f in dataclasses.fields(TrackingConfig)}
+    return {k: fields[k] for k in OPTIONS}
+
+
+def experiment_options(control: str) -> dict:
+    """{option: default} of experiment.options for ``control`` (the open-loop experiment has none)."""
+    return {"closed_loop": closed_loop_options, "tracking": tracking_options}.get(control, dict)()
 
 
 REGRESSIONS = {

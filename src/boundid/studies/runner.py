@@ -101,8 +101,9 @@ def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, set_estim
             except RUN_FAILURES as exc:
                 res.errors["bounds"] = _reason(exc)
             res.time_s["lp_bounds"] = time.perf_counter() - t0
-    solvers = {"outer": outer_ellipsoid, "inner": inner_ellipsoid, "john": john_outer}
-    for name in cfg.exact.sdp:
+    solvers = {"outer": outer_ellipsoid, "inner": inner_ellipsoid,
+               "john": lambda P: john_outer(P, inner=res.sdp.get("inner"))}  # p x the inner one, solved once
+    for name in sorted(cfg.exact.sdp, key=lambda nm: nm == "john"):
         with progress.stage(f"{cfg.name}: SDP {name} ellipsoid"):
             t0 = time.perf_counter()
             try:
@@ -111,7 +112,7 @@ def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, set_estim
                 res.errors[name] = _reason(exc)
             res.time_s[f"sdp_{name}"] = time.perf_counter() - t0
     have_volumes = "outer" in res.sdp and "inner" in res.sdp
-    if have_volumes:
+    if have_volumes and cfg.exact.volume_bracket:
         with progress.stage(f"{cfg.name}: bracket of the minimum-volume outer ellipsoid"):
             t0 = time.perf_counter()
             try:

@@ -44,8 +44,9 @@ def read_toml(path: str | Path) -> dict:
 def describe_option(default: Any) -> str:
     """The type of an option as a study file writes it, from its default value ("number", "list of 4 strings")."""
     if isinstance(default, tuple):
-        kind = describe_option(default[0]) if default else "value"
-        return f"list of {len(default)} {kind}s"
+        if not default:
+            return "list of strings"
+        return f"list of {len(default)} {describe_option(default[0])}s"
     if isinstance(default, builtins.bool):
         return "true or false"
     if isinstance(default, builtins.int):
@@ -60,6 +61,8 @@ def _matches(value: Any, default: Any) -> bool:
         return isinstance(value, builtins.bool) and isinstance(default, builtins.bool)
     if isinstance(default, builtins.float):
         return isinstance(value, builtins.int | builtins.float)
+    if default == ():  # a list of names, of any length
+        return isinstance(value, builtins.list) and all(isinstance(v, builtins.str) for v in value)
     if isinstance(default, tuple):
         return (isinstance(value, builtins.list) and len(value) == len(default)
                 and all(_matches(v, d) for v, d in zip(value, default, strict=True)))
@@ -171,7 +174,8 @@ class Section:
     def options(self, key: str, known: Mapping[str, Any], owner: str) -> dict:
         """An options table checked against ``known`` = {option: default}: the type of each value is
         that of its default (a float default accepts integers; a tuple default is a list of that
-        length); lists come back as tuples. Unknown options are refused, listing the known ones."""
+        length, an empty tuple a list of strings of any length); lists come back as tuples. Unknown
+        options are refused, listing the known ones."""
         table = self.section(key)
         out = {}
         for name, value in table.data.items():
@@ -185,7 +189,9 @@ class Section:
                 kind = describe_option(default)
                 article = "" if kind.startswith("true") else ("an " if kind[0] in "aeiou" else "a ")
                 raise table.error(name, f"must be {article}{kind} (default {default!r}), got {value!r}.")
-            if isinstance(value, builtins.list):
+            if isinstance(value, builtins.list) and default == ():
+                value = tuple(value)
+            elif isinstance(value, builtins.list):
                 value = tuple(builtins.float(v) if isinstance(d, builtins.float) else v
                               for v, d in zip(value, default, strict=True))
             elif isinstance(default, builtins.float):

@@ -1,0 +1,137 @@
+"""A study can name any URDF file: the direct-drive arm written as a 2-link URDF by the test
+(tests/planar_urdf.py), tracked in closed loop within the limits read from the file, identified in
+its base parameters.
+
+Independent references: the built-in closed-form DirectDriveArm (torques of the identified
+model against its inverse dynamics), the LP guarantee (the base truth inside the exact bounds and
+the OBE when the bound holds at the truth) and the recorded reference trajectory.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from boundid.errors import StudyError
+from boundid.models import BaseParameterModel, DirectDriveArm
+from boundid.studies.config import load_study
+from boundid.studies.runner import run_study
+from planar_urdf import planar_arm_urdf
+
+
+def planar_study(folder, control="tracking", extra_robot="") -> str:
+    urdf = planar_arm_urdf(folder)
+    return f"""
+regressions = ["inverse_dynamic"]
+
+[study]
+name = "planar_urdf"
+title = "The direct-drive arm as a URDF"
+seed = 5
+
+[robot]
+model = "urdf"
+options = {{ source = "{urdf}"{extra_robot} }}
+
+[experiment]
+source = "simulate"
+control = "{control}"
+duration_s = 4.0
+sample_period_s = 0.001
+coulomb_width_rad_s = 0.05
+validation_duration_s = 2.0
+options = {{ period_s = 4.0, substeps = 2 }}
+
+[experiment.noise]
+encoder_counts_per_rev = 524288
+torque = {{ kind = "uniform", level = 0.1 }}
+
+[preprocessing]
+lowpass_cutoff_hz = 10.0
+decimation = 10
+min_speed_rad_s = 0.1
+
+[prior]
+center = "zero"
+absolute_range = 100.0
+
+[[estimators]]
+method = "wls"
+label = "WLS"
+regressions = ["inverse_dynamic"]
+
+[[estimators]]
+method = "obe"
+label = "OBE"
+form = "factorized"
+regressions = ["inverse_dynamic"]
+e_max = 0.5
+
+[exact]
+regression = "inverse_dynamic"
+e_max = 0.5
+lp_bounds = true
+sdp = []
+"""
+
+
+@pytest.fixture(scope="module")
+def planar_run(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("planar")
+    path = folder / "planar.toml"
+    path.write_text(planar_study(folder))
+    return run_study(load_study(path))
+
+
+def test_a_study_names_a_urdf_file_and_identifies_the_direct_drive_arm(planar_run):
+    r, arm = planar_run, DirectDriveArm()
+    assert isinstance(r.model, BaseParameterModel) and r.model.p == 10
+    assert not r.failures, r.failures
+    # the model read from the file has the arm's dynamics on the recorded motion
+    rec = r.data.recording
+    k = slice(1, -1)
+    qd = (rec.q[2:] - rec.q[:-2]) / (2 * rec.h)
+    qdd = (rec.q[2:] - 2 * rec.q[1:-1] + rec.q[:-2]) / rec.h ** 2
+    np.testing.assert_allclose(r.model.inverse_dynamics(rec.q[k], qd, qdd), arm.inverse_dynamics(rec.q[k], qd, qdd),
+                               atol=1e-9)
+    # the identified base parameters give the arm's torques (WLS, within the noise's reach)
+    wls = r.estimates[("WLS", "inverse_dynamic")].center
+    tau_arm = arm.inverse_dynamics(rec.q[k], qd, qdd)
+    tau_wls = r.model.inverse_dynamics(rec.q[k], qd, qdd, wls)
+    assert np.sqrt(np.mean((tau_wls - tau_arm) ** 2)) < 0.02 * np.sqrt(np.mean(tau_arm ** 2))
+
+
+def test_the_guaranteed_sets_of_the_urdf_study_contain_the_base_truth(planar_run):
+    r = planar_run
+    truth = r.model.theta_true
+    assert r.exact.truth_error_ratio <= 1.0  # the bound holds on every row at the truth ...
+    b = r.exact.bounds                        # ... so the exact bounds and the OBE must contain it
+    assert np.all(b.lo <= truth + 1e-9) and np.all(truth <= b.hi + 1e-9)
+    assert r.estimates[("OBE", "inverse_dynamic")].set.contains(truth)
+    phys = r.exact.physical  # under the links' pseudo-inertia LMIs, lifted to base parameters
+    assert phys.error is None and "SDP" in phys.method, (phys.error, phys.method)
+    assert phys.intervals["truth_inside"].eq("yes").all()
+
+
+def test_the_tracking_run_follows_its_reference_within_the_file_limits(planar_run):
+    r = planar_run
+    info, lim = r.data.info, r.model.limits
+    assert info["identification_tracking_error_rms_rad"] < 1e-3
+    assert info["identification_saturated_fraction"] == 0.0
+    assert all(v <= 1.0 for v in info["identification_limit_usage"].values())
+    assert np.all(np.abs(r.data.recording.q) <= lim.upper)
+    assert r.data.validation is not None and r.data.validation.t.size == 2000
+
+
+def test_robots_without_the_tracking_experiment_are_refused(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(planar_study(tmp_path).replace('model = "urdf"\noptions', 'model = "direct_drive"\n#'))
+    with pytest.raises(StudyError, match="tracking"):
+        run_study(load_study(path))
+
+
+def test_urdf_options_are_checked(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(planar_study(tmp_path, extra_robot=', parameters = "minimal"'))
+    with pytest.raises(StudyError, match="'base' or 'standard'"):
+        load_study(path)
