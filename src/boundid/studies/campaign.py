@@ -73,6 +73,18 @@ def campaign_config(cfg: StudyConfig, scenario: Scenario) -> StudyConfig:
                    experiment=replace(cfg.experiment, validation_duration_s=0.0))
 
 
+def select_estimators(cfg: StudyConfig, labels: tuple[str, ...] | list[str] = ()) -> StudyConfig:
+    """The study with only the estimators labelled ``labels``, in the study's order (empty: all of them);
+    StudyError naming an unknown label. The exact optima are not estimators: they stay."""
+    if not labels:
+        return cfg
+    known = [ec.label for ec in cfg.estimators]
+    unknown = [lab for lab in labels if lab not in known]
+    if unknown:
+        raise StudyError(f"{cfg.file}: no estimator labelled {unknown}; the study has {known}.")
+    return replace(cfg, estimators=tuple(ec for ec in cfg.estimators if ec.label in labels))
+
+
 def config_hash(cfg: StudyConfig) -> str:
     """12 hex digits identifying everything a replicate's result depends on (not the file's path)."""
     return hashlib.sha256(repr(replace(cfg, file=Path(Path(cfg.file).name))).encode()).hexdigest()[:12]
@@ -264,12 +276,16 @@ def load_results(cfg: StudyConfig, scenarios, replicates: int, out: str | Path) 
 
 
 def run_campaign(cfg: StudyConfig, replicates: int, scenarios: tuple[Scenario, ...], out: str | Path, *,
-                 workers: int = 1, scheduler: str | None = None, progress: Progress = QUIET) -> CampaignResult:
+                 workers: int = 1, scheduler: str | None = None, estimators: tuple[str, ...] = (),
+                 progress: Progress = QUIET) -> CampaignResult:
     """Run the missing replicates 0..replicates-1 of each scenario and return all of them.
 
     out : campaign folder (``reports/<study>/campaign``); results go to ``out/data/``
     workers : LocalCluster worker processes (1 thread each); 0 runs in this process
     scheduler : address of an existing Dask scheduler (then ``workers`` is ignored)
+    estimators : labels of the estimators each replicate runs (``[campaign] estimators``; empty: all).
+        The result's ``config`` holds only those, and its files are apart from a campaign of others
+        (the config hash covers them).
     """
     if replicates < 1:
         raise InputError(f"replicates must be >= 1, got {replicates}.")
@@ -277,6 +293,7 @@ def run_campaign(cfg: StudyConfig, replicates: int, scenarios: tuple[Scenario, .
         raise InputError(f"workers must be >= 0 (0: in this process), got {workers}.")
     if not scenarios:
         raise StudyError(f"{cfg.file}: no scenario to run.")
+    cfg = select_estimators(cfg, estimators)
     for sc in scenarios:
         sc.apply(cfg)  # refuses measured data before anything starts
     out = Path(out)
