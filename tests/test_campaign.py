@@ -30,6 +30,7 @@ from boundid.studies.campaign import (
     replicate_rows,
     replicate_seed,
     run_campaign,
+    select_estimators,
     summarize,
 )
 from boundid.studies.config import load_study
@@ -146,6 +147,33 @@ def test_replicate_is_deterministic_and_guarantee_holds(cfg):
     for est in ("OBE-factorized", "LP exact"):
         g = a[a["estimator"] == est]
         assert np.all((g["lo"] <= g["truth"]) & (g["truth"] <= g["hi"])), est
+
+
+def test_campaign_of_chosen_estimators(tmp_path, cfg):
+    """[campaign] estimators = [labels]: a replicate runs those estimators only (and the exact LP
+    bounds), with the same numbers as the same replicate of every estimator (checked against
+    that replicate's rows), into files of their own (another config hash); unknown labels are
+    refused naming the study's labels, in the file and in the call."""
+    path = tmp_path / "chosen.toml"
+    path.write_text(TINY + CAMPAIGN.replace("replicates = 4", 'replicates = 4\nestimators = ["WLS"]'))
+    spec = load_campaign(replace(cfg, file=path))
+    assert spec.estimators == ("WLS",)
+    res = run_campaign(cfg, 1, (BOUNDED,), tmp_path / "c", workers=0, estimators=spec.estimators)
+    assert set(res.table["estimator"]) == {"WLS", "LP exact"}
+    assert [ec.label for ec in res.config.estimators] == ["WLS"]
+    full = replicate_rows(cfg, BOUNDED, 0)
+    key = ["estimator", "regression", "parameter"]
+    ours = res.table.set_index(key)[["center", "lo", "hi", "truth_in_set"]].sort_index()
+    theirs = full.set_index(key).loc[ours.index, ["center", "lo", "hi", "truth_in_set"]]
+    pd.testing.assert_frame_equal(ours, theirs)
+    assert config_hash(campaign_config(select_estimators(cfg, ["WLS"]), BOUNDED)) != \
+        config_hash(campaign_config(cfg, BOUNDED))
+    with pytest.raises(StudyError, match=r"no estimator labelled \['Box'\]"):
+        run_campaign(cfg, 1, (BOUNDED,), tmp_path / "d", workers=0, estimators=("Box",))
+    bad = tmp_path / "bad.toml"
+    bad.write_text(TINY + CAMPAIGN.replace("replicates = 4", 'replicates = 4\nestimators = ["Box"]'))
+    with pytest.raises(StudyError, match=r"campaign\.estimators: entries must be labels of the study's estimators"):
+        load_campaign(replace(cfg, file=bad))
 
 
 def _files(data_dir: Path) -> dict[str, float]:

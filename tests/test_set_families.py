@@ -111,6 +111,24 @@ def test_zonotope_membership_by_lp_agrees_with_the_facet_test(monkeypatch):
         np.testing.assert_array_equal(by_lp, by_facets)
 
 
+def test_zonotope_membership_of_few_points_by_lp_without_the_facet_normals():
+    """A zonotope with many generator subsets (p = 6, m = 12: C(12, 5) = 792 normals) tested at a
+    few points uses the membership LP and never computes the normals; checked against the facet-
+    normal test of the same zonotope at the same points (vertices c + G sign(G^T n) for random n:
+    inside; the same pushed out to c + (1 + 1e-6)(x - c): outside)."""
+    rng = np.random.default_rng(12)
+    G = rng.normal(size=(6, 12))
+    c = rng.normal(size=6)
+    xi = np.sign(rng.normal(size=(2, 6)) @ G)
+    pts = np.vstack([c + xi @ G.T, c + (1 + 1e-6) * (xi @ G.T)])
+    Z = Zonotope(c, G)
+    by_lp = np.array([Z.contains(x) for x in pts])
+    assert Z._normals is None
+    by_facets = Zonotope(c, G).contains(np.repeat(pts, 10, axis=0))[::10]   # enough points to pay for them
+    np.testing.assert_array_equal(by_lp, [True, True, False, False])
+    np.testing.assert_array_equal(by_facets, by_lp)
+
+
 def test_log_volume_edge_cases():
     """A flat box or rank-deficient zonotope has ln vol = -inf; a zonotope with too many generator
     subsets reports NaN (the protocol's 'cannot say') rather than a guess."""

@@ -166,7 +166,7 @@ def cmd_campaign(args) -> int:
     recover_folder(out, keep=(DATA_DIR,))  # a page write killed mid-swap may have left data/ beside it
     with _progress(args.quiet) as progress:
         result = run_campaign(cfg, replicates, scenarios, out, workers=workers,
-                              scheduler=args.scheduler, progress=progress)
+                              scheduler=args.scheduler, estimators=spec.estimators, progress=progress)
     for path, reason in result.set_aside:
         print(f"boundid: warning: {reason}; moved to {path} and computed again.", file=sys.stderr)
     page = write_campaign_page(result)

@@ -118,6 +118,8 @@ DESCRIPTIONS = {
     "paper": "The paper's published values for the page's comparison table (free-form table).",
     "campaign": "A Monte Carlo campaign (boundid campaign): replicates of noise scenarios.",
     "campaign.replicates": "Replicates per scenario (the command's --replicates overrides it).",
+    "campaign.estimators": ("Labels of the estimators each replicate runs (default: every [[estimators]] table); "
+                            "the exact LP bounds always run. Fewer estimators, faster replicates."),
     "campaign.scenarios[]": "One table per scenario ([[campaign.scenarios]]); each overrides the experiment.",
     "campaign.scenarios[].name": "A plain name (files and page rows).",
     "campaign.scenarios[].description": "The scenario in words.",

@@ -115,6 +115,10 @@ class Block:
         self.lo[k], self.up[k] = lo, up
         self._kind = None
 
+    def rows_bounds(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rows, lo, up) of pool rows ``idx``: :meth:`rows` and :meth:`bounds` together."""
+        return (self.rows(idx), *self.bounds(idx))
+
     def rows(self, idx: np.ndarray) -> np.ndarray:
         """The effective coefficient rows of pool rows ``idx``, (len(idx), p [+ 1])."""
         R = self.A[idx]
@@ -267,12 +271,17 @@ class StripBlock:
         return (r / s, np.full(r.size, np.inf)) if self.side > 0 else (np.full(r.size, -np.inf), r / s)
 
     def rows(self, idx: np.ndarray) -> np.ndarray:
+        return self.rows_bounds(idx)[0]
+
+    def rows_bounds(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rows, lo, up) of pool rows ``idx`` (:meth:`rows`, :meth:`bounds`) from one read of them."""
         Ws, r, n = self._rn(idx)
-        if self.side == 0:
-            return Ws * self.scale / n[:, None]
         e = self.e[idx]
+        if self.side == 0:
+            return Ws * self.scale / n[:, None], (r - self.level * e) / n, (r + self.level * e) / n
         s = np.hypot(n, e)
-        return np.hstack([Ws * self.scale, self.side * e[:, None]]) / s[:, None]
+        R = np.hstack([Ws * self.scale, self.side * e[:, None]]) / s[:, None]
+        return (R, r / s, np.full(r.size, np.inf)) if self.side > 0 else (R, np.full(r.size, -np.inf), r / s)
 
     def violation(self, sl, X: np.ndarray) -> np.ndarray:
         """Distance of each row ``sl`` outside its bounds at the columns of X (negative inside)."""
@@ -357,8 +366,9 @@ class WorkingSetLP:
         self.n_solves = 0
         self.n_passes = 0
         #: the last optimal basis of each objective of a multi-objective minimize_many (by the
-        #: bytes of its cost), so that each re-solve starts at its own vertex, not at the last one
-        self._bases: dict[bytes, highspy.HighsBasis] = {}
+        #: bytes of its cost), so that each re-solve starts at its own vertex, not at the last one;
+        #: with its number of rows (reading a basis's row statuses costs 0.5 us a row)
+        self._bases: dict[bytes, tuple[highspy.HighsBasis, int]] = {}
         h = highspy.Highs()
         for name, val in (("output_flag", False), ("presolve", "off"), ("solver", "simplex"),
                           ("primal_feasibility_tolerance", 1e-10), ("dual_feasibility_tolerance", 1e-10),
@@ -378,16 +388,14 @@ class WorkingSetLP:
         rows = rows[~self.in_ws[b][rows]]
         if rows.size == 0:
             return
-        rows = np.sort(rows)
-        rows = rows[np.r_[True, rows[1:] != rows[:-1]]]
+        rows = np.unique(rows)
         blk = self.blocks[b]
-        vals = blk.rows(rows)
+        vals, blo, bup = blk.rows_bounds(rows)
         if vals.shape[1] < self.n_cols:
             vals = np.hstack([vals, np.zeros((rows.size, self.n_cols - vals.shape[1]))])
         ncol = self.n_cols
-        idx = np.tile(np.arange(ncol, dtype=np.int32), rows.size)
+        idx = np.broadcast_to(np.arange(ncol, dtype=np.int32), (rows.size, ncol)).ravel()
         starts = np.arange(rows.size, dtype=np.int32) * ncol
-        blo, bup = blk.bounds(rows)
         lo = np.where(np.isfinite(blo), blo, -_INF)
         up = np.where(np.isfinite(bup), bup, _INF)
         self.h.addRows(rows.size, lo, up, vals.size, starts, idx, vals.ravel().astype(float))
@@ -415,7 +423,7 @@ class WorkingSetLP:
             basis.row_status = [status[j] if j < len(status) else _BASIC for j in src.tolist()]
             return basis
 
-        self._bases = {k: mapped(v) for k, v in other._bases.items()}
+        self._bases = {k: (mapped(v), self.n_rows) for k, (v, _) in other._bases.items()}
         basis = other.h.getBasis()
         if basis.valid:
             self.h.setBasis(mapped(basis))
@@ -423,12 +431,13 @@ class WorkingSetLP:
     def _restore(self, key: bytes) -> None:
         """Set the basis kept for objective ``key``, rows added since then basic (their slacks:
         the basis stays dual feasible, the dual simplex starts at that objective's vertex)."""
-        basis = self._bases.get(key)
-        if basis is None:
+        kept = self._bases.get(key)
+        if kept is None:
             return
-        status = list(basis.row_status)
-        if len(status) < self.n_rows:
-            basis.row_status = status + [_BASIC] * (self.n_rows - len(status))
+        basis, n = kept
+        if n < self.n_rows:
+            basis.row_status = list(basis.row_status) + [_BASIC] * (self.n_rows - n)
+            self._bases[key] = (basis, self.n_rows)
         self.h.setBasis(basis)
 
     def set_col_bounds(self, lo: np.ndarray, hi: np.ndarray) -> None:
@@ -514,7 +523,7 @@ class WorkingSetLP:
                               "working set of a problem already solved in well-scaled coordinates; report "
                               "this case (the data, or W, y, e_max) so the scaling can be improved.")
         if keep_basis:
-            self._bases[cost.tobytes()] = h.getBasis()
+            self._bases[cost.tobytes()] = (h.getBasis(), self.n_rows)
         return np.array(h.getSolution().col_value)
 
     @one_blas_thread

@@ -58,10 +58,12 @@ class Scenario:
 
 @dataclass(frozen=True)
 class CampaignSpec:
-    """The ``[campaign]`` table: default replicate count and the scenarios, in file order."""
+    """The ``[campaign]`` table: default replicate count, the scenarios in file order, and the labels of
+    the estimators a replicate runs (empty: every estimator of the study)."""
 
     replicates: int
     scenarios: tuple[Scenario, ...]
+    estimators: tuple[str, ...] = ()
 
     def select(self, names: list[str] | None) -> tuple[Scenario, ...]:
         """The named scenarios (all when ``names`` is None or empty); StudyError for an unknown name."""
@@ -98,6 +100,11 @@ def load_campaign(cfg: StudyConfig) -> CampaignSpec:
         return CampaignSpec(replicates=10, scenarios=(Scenario("study", "the experiment of the study file"),))
     sec = Section(data, "", path).section("campaign")
     replicates = sec.int("replicates", 10, lo=1)
+    estimators = tuple(dict.fromkeys(sec.list("estimators", [])))
+    labels = [ec.label for ec in cfg.estimators]
+    if any(lab not in labels for lab in estimators):
+        raise sec.error("estimators", f"entries must be labels of the study's estimators ({labels}); got "
+                                      f"{[lab for lab in estimators if lab not in labels]}.")
     scenarios = tuple(_scenario(s) for s in sec.sections("scenarios"))
     if not scenarios:
         raise sec.error("scenarios", "no [[campaign.scenarios]] table: name at least one scenario.")
@@ -105,4 +112,4 @@ def load_campaign(cfg: StudyConfig) -> CampaignSpec:
     if len(set(names)) != len(names):
         raise sec.error("scenarios", f"names must be unique, got {names}.")
     sec.check_unknown()
-    return CampaignSpec(replicates, scenarios)
+    return CampaignSpec(replicates, scenarios, estimators)
