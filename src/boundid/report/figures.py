@@ -218,7 +218,8 @@ def torque_bounds(
     measured torque drawn on top; samples outside the band are marked and counted in the subplot
     title.
 
-    t : (N,) [s];  measured, lower, upper : (N,) or (N, n) [``unit``]
+    t : (N,) [s];  measured, lower, upper : (N,) or (N, n) [``unit``], NaN where a joint has no
+        sample (drawn as a gap, not counted)
     extra_bands : {label: (lower (N, n), upper (N, n))}, e.g. the WLS 95 % prediction band,
         drawn as outlines so both bands stay readable.
     max_points : for long records only every k-th sample is drawn so the figure stays small
@@ -231,7 +232,7 @@ def torque_bounds(
     hi = _as_columns(upper, "upper", N)
     if lo.shape != meas.shape or hi.shape != meas.shape:
         raise InputError(f"measured, lower and upper must have one shape, got {meas.shape}, {lo.shape}, {hi.shape}.")
-    if np.any(hi < lo):
+    if np.any(hi < lo):  # NaN (a joint without a row at that sample) compares False: a gap in the plot
         raise InputError("the band needs lower <= upper on every sample.")
     extra = {}
     for label, (a, b) in (extra_bands or {}).items():
@@ -254,7 +255,8 @@ def torque_bounds(
         out = (meas[:, i] < lo[:, i]) | (meas[:, i] > hi[:, i])
         if out.any():
             ax.plot(t[out], meas[out, i], "x", color="#D00000", ms=4, label="outside bounds")
-        ax.set_title(f"{names[i]}: {int(out.sum())} of {N} samples outside {band_label}", fontsize=9)
+        rows = int(np.sum(~np.isnan(meas[:, i])))
+        ax.set_title(f"{names[i]}: {int(out.sum())} of {rows} samples outside {band_label}", fontsize=9)
         ax.set_ylabel(_label("torque", unit))
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time [s]")

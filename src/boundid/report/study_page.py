@@ -213,10 +213,7 @@ def _validation_section(page: Page, r: StudyResult) -> None:
                         "Measured joint positions and the open-loop re-simulations (right: difference).",
                         name="resimulation_positions")
     if "torque_bands" in v and v["torque_bands"]:
-        reg, bands = v["validation_regression"], v["torque_bands"]
-        n = r.model.n_joints
-        measured = reg.y.reshape(-1, n)
-        t = reg.t.reshape(-1, n)[:, 0]
+        bands, measured, t = v["torque_bands"], v["validation_measured"], v["validation_t"]
         eq = " of eq. (37)" if r.config.robot == "h4" else ""  # the H4 paper's equation
         page.section(f"Cross-validation: torque bounds{eq}",
                      "On a trajectory not used for identification, the guaranteed torque bounds "

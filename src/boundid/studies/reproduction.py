@@ -161,7 +161,7 @@ def h4_claims(r) -> list[Claim]:
     reg = r.validation.get("validation_regression")
     guaranteed = {lab: b for lab, b in bands.items() if b.kind == "guaranteed"}
     if guaranteed and reg is not None:
-        measured = reg.y.reshape(-1, m.n_joints)
+        measured = r.validation["validation_measured"]
         inside = {lab: 1.0 - b.outside_fraction(measured) for lab, b in guaranteed.items()}
         ok = [lab for lab, s in inside.items() if s >= ENCLOSE_SHARE]
         verdict = "reproduced" if len(ok) == len(inside) else ("partly" if ok else "not reproduced")

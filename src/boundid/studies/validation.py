@@ -55,7 +55,10 @@ class TorqueBand:
         return 0.5 * (self.upper - self.lower)
 
     def outside_fraction(self, measured: np.ndarray) -> float:
-        return float(np.mean((measured < self.lower) | (measured > self.upper)))
+        """Share of the measured torques (S, n) outside the band (NaN entries, rows left out of the
+        regression, are not counted)."""
+        valid = ~np.isnan(measured)
+        return float(np.mean(((measured < self.lower) | (measured > self.upper))[valid]))
 
 
 def _mass_matrix_pd(model: RobotModel, q: np.ndarray, theta: np.ndarray) -> bool:
@@ -77,11 +80,23 @@ def resimulate(cfg: StudyConfig, model: RobotModel, data: StudyData, label: str,
     return Resimulation(label, traj.q, rms)
 
 
-def torque_bands(W: np.ndarray, n_joints: int, estimates: dict[str, Estimate],
-                 joint: np.ndarray) -> dict[str, TorqueBand]:
-    """[H4Paper] eq. 37 bounds [-h_S(-w), h_S(w)] of each row w of W for set-membership estimates
-    (guaranteed or unverified, any family), 95 % prediction bands w^T c +- 1.96 sqrt(w^T Cov w +
-    noise variance) for statistical ones; point estimates get none."""
+def per_sample(values: np.ndarray, reg, n_joints: int) -> tuple[np.ndarray, np.ndarray]:
+    """Values (N,) of the rows of ``reg`` (one per joint and sample) as (S, n) per sample, NaN where
+    a joint's row was left out (e.g. by min_speed_rad_s), and the times (S,) of the S samples."""
+    samples, row = np.unique(reg.sample, return_inverse=True)
+    out = np.full((samples.size, n_joints), np.nan)
+    out[row, reg.joint] = values
+    t = np.empty(samples.size)
+    t[row] = reg.t
+    return out, t
+
+
+def torque_bands(reg, n_joints: int, estimates: dict[str, Estimate]) -> dict[str, TorqueBand]:
+    """[H4Paper] eq. 37 bounds [-h_S(-w), h_S(w)] of each row w of the regression ``reg`` for
+    set-membership estimates (guaranteed or unverified, any family), 95 % prediction bands w^T c +-
+    1.96 sqrt(w^T Cov w + noise variance) for statistical ones; point estimates get none. Each band
+    is (S, n) per sample (:func:`per_sample`)."""
+    W, joint = reg.W, reg.joint
     bands = {}
     for label, est in estimates.items():
         center = W @ est.center
@@ -94,7 +109,8 @@ def torque_bands(W: np.ndarray, n_joints: int, estimates: dict[str, Estimate],
             lower, upper = center - half, center + half
         else:
             continue
-        bands[label] = TorqueBand(label, *(a.reshape(-1, n_joints) for a in (center, lower, upper)), est.kind)
+        bands[label] = TorqueBand(label, *(per_sample(a, reg, n_joints)[0] for a in (center, lower, upper)),
+                                  est.kind)
     return bands
 
 
@@ -213,5 +229,6 @@ def validate_study(cfg: StudyConfig, model: RobotModel, data: StudyData,
         reg = inverse_dynamic_rows(model, data.validation, cfg.preprocessing)
         ests = {lab: e for (lab, rn), e in estimates.items() if rn == "inverse_dynamic"}
         out["validation_regression"] = reg
-        out["torque_bands"] = torque_bands(reg.W, model.n_joints, ests, reg.joint)
+        out["validation_measured"], out["validation_t"] = per_sample(reg.y, reg, model.n_joints)
+        out["torque_bands"] = torque_bands(reg, model.n_joints, ests)
     return out
