@@ -139,8 +139,9 @@ def simulate_closed_loop(robot, reference, duration: float, controller: JointPID
     compiled = robot.compiled_closed_loop()
     if compiled is not None:  # the loop below, compiled by the robot (same operations, same numbers)
         quantize_angle(q, counts_per_rev)  # checks counts_per_rev
-        Q, QD, QM, V, SAT = compiled(q, q_des, qd_des, controller.kp, controller.ki, controller.kd, h, gain, v_max,
-                                     2.0 * np.pi / counts_per_rev, int(substeps), coulomb_width)
+        Q, QD, QM, V, SAT = compiled(q, q_des, qd_des, np.zeros((len(t), n)), controller.kp, controller.ki,
+                                     controller.kd, h, gain, v_max, 2.0 * np.pi / counts_per_rev, int(substeps),
+                                     coulomb_width)
         return ClosedLoopRun(t, Q, QD, QM, q_des, qd_des, V, gain * V, SAT, info)
     qd = np.zeros(n)
     Q, QD, QM, V, SAT = (np.empty((len(t), n)) for _ in range(5))

@@ -225,12 +225,13 @@ def rk4_zoh(q, qd, tau, x_hint, dt, substeps, P, V, W, side, updown, dims, theta
 
 
 @njit(cache=True)
-def closed_loop(q, q_des, qd_des, kp, ki, kd, h, gain, v_max, step, substeps, x0, P, V, W, side, updown, dims,
-                theta, struct, g, width, tol, max_iter):
+def closed_loop(q, q_des, qd_des, ff, kp, ki, kd, h, gain, v_max, step, substeps, x0, P, V, W, side, updown,
+                dims, theta, struct, g, width, tol, max_iter):
     """The sample loop of :func:`boundid.experiments.closed_loop.simulate_closed_loop` compiled for
     the H4, the same operations in the same order (encoder rounding to ``step`` rad, PID with
     conditional integration, clipped current reference, :func:`rk4_zoh` from the pose x0), so the
-    same numbers. q (4,) start angles; q_des, qd_des (N, 4); kp, ki, kd, gain, v_max (4,).
+    same numbers. q (4,) start angles; q_des, qd_des, ff (N, 4) (ff: feedforward torque added to
+    the PID's); kp, ki, kd, gain, v_max (4,).
     Returns (Q, QD, QM, Vref, SAT, k): k the sample whose step left the reachable set (-1: none;
     rows after k undefined)."""
     N, n = q_des.shape
@@ -244,7 +245,7 @@ def closed_loop(q, q_des, qd_des, kp, ki, kd, h, gain, v_max, step, substeps, x0
         v_est = (qm - q_prev) / h
         q_prev = qm
         e = q_des[k] - qm
-        u = kp * e + ki * integ + kd * (qd_des[k] - v_est)
+        u = ff[k] + kp * e + ki * integ + kd * (qd_des[k] - v_est)
         v = u / gain
         sat = np.abs(v) >= v_max
         integ += np.where(sat, 0.0, e * h)

@@ -345,9 +345,9 @@ class H4Robot(H4Kinematics, RobotModel):
         args = self.step_kernel_args()
         home = np.asarray(self.geometry.home, float)
 
-        def run(q0, q_des, qd_des, kp, ki, kd, h, gain, v_max, step, substeps, coulomb_width):
+        def run(q0, q_des, qd_des, feedforward, kp, ki, kd, h, gain, v_max, step, substeps, coulomb_width):
             Q, QD, QM, V, SAT, failed = kern.closed_loop(
-                np.asarray(q0, float), np.ascontiguousarray(q_des, float), np.ascontiguousarray(qd_des, float),
+                np.asarray(q0, float), *(np.ascontiguousarray(a, float) for a in (q_des, qd_des, feedforward)),
                 *(np.ascontiguousarray(a, float) for a in (kp, ki, kd)), float(h),
                 *(np.ascontiguousarray(a, float) for a in (gain, v_max)), float(step), int(substeps), home, *args,
                 float(coulomb_width), self.fk_tol, self.fk_max_iter)
