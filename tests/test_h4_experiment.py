@@ -9,9 +9,11 @@ from boundid.experiments.closed_loop import JointPID, simulate_closed_loop, zoh_
 from boundid.experiments.h4_pipeline import (
     H4ExperimentConfig,
     cutoff_from_bandwidth,
+    identification_design,
     identification_regression,
     run_h4_experiment,
 )
+from boundid.experiments.preprocessing import decimate, differentiate
 from boundid.experiments.trajectories import (
     FourierTrajectory,
     SegmentedTrajectory,
@@ -125,8 +127,9 @@ def test_closed_loop_tracks_with_quantised_encoders_and_saturation(robot, traj):
 
 def test_closed_loop_repeats_the_step_by_step_loop(robot, traj):
     """Reference: the loop of the module docstring written here in numpy, one zoh_step per sample
-    (the robot's compiled stepper called from Python): simulate_closed_loop gives the same numbers,
-    bit for bit, with and without saturation."""
+    (the robot's compiled stepper called from Python): simulate_closed_loop, which runs the H4's
+    compiled loop (H4Robot.compiled_closed_loop), gives the same numbers, bit for bit, with and
+    without saturation."""
     truth = H4Truth(structural=1.0)
     q0 = robot.inverse_kinematics(np.asarray(robot.geometry.home))
     pid = JointPID.from_bandwidth(np.diag(robot.mass_matrix(q0)), 8.0)
@@ -150,6 +153,30 @@ def test_closed_loop_repeats_the_step_by_step_loop(robot, traj):
         assert limit > 1.0 or run.saturated.any()  # the small limit exercises the anti-windup branch
 
 
+def test_compiled_closed_loop_leaves_the_reachable_set_where_the_python_loop_does(robot):
+    """Reference: the same simulation with the loop in Python (the robot's compiled loop switched
+    off, its stepper called per sample): a reference driving the arms out of the reachable set
+    raises UnreachablePoseError at the same state, with the same message."""
+
+    class Away:  # every motor angle runs away from home at 4 rad/s
+        def evaluate(self, t):
+            rate = 4.0 * np.array([1.0, 1.0, -1.0, -1.0])
+            q = q0 + t[:, None] * rate
+            return q, np.broadcast_to(rate, q.shape), np.zeros_like(q)
+
+    q0 = robot.inverse_kinematics(np.asarray(robot.geometry.home))
+    pid = JointPID.from_bandwidth(np.diag(robot.mass_matrix(q0)), 8.0)
+    messages = []
+    for compiled in (True, False):
+        truth = H4Truth(structural=1.0)
+        if not compiled:
+            truth.compiled_closed_loop = lambda: None
+        with pytest.raises(UnreachablePoseError, match="left its reachable set") as err:
+            simulate_closed_loop(truth, Away(), 1.0, pid)
+        messages.append(str(err.value))
+    assert messages[0] == messages[1]
+
+
 def test_noise_free_pipeline_recovers_the_parameters(robot, traj):
     """Reference: the true theta, by numpy lstsq on the filtered, decimated regression.
 
@@ -168,6 +195,32 @@ def test_noise_free_pipeline_recovers_the_parameters(robot, traj):
         assert reg.param_names == robot.param_names and reg.info["jdot"] == jdot
     with pytest.raises(InputError):
         identification_regression(robot, t, q, tau, cutoff_hz=80.0, decimation=10)
+
+
+def test_design_reused_for_a_new_torque_gives_the_regression_of_that_torque(robot, traj):
+    """Reference: the torque side written out here (preprocessing.decimate with the design's
+    cut-off, the edge mask of edge_s, the min_speed rows) and the regression built from scratch
+    (identification_regression on the new torque): same W and y, bit for bit. Linearity of the
+    parallel filtering checks y once more (y of a sum = sum of the y's)."""
+    t = np.arange(0, 4.0, 1e-3)
+    q, qd, qdd = traj.evaluate(t)
+    tau1 = robot.inverse_dynamics(q, qd, qdd)
+    tau2 = tau1 + np.random.default_rng(0).uniform(-0.05, 0.05, tau1.shape)
+    kw = {"cutoff_hz": 20.0, "decimation": 10, "jdot": "analytic", "edge_s": 0.15, "min_speed": 0.02}
+    design = identification_design(robot, t, q, **kw)
+    reg1, reg2 = design.regression(tau1), design.regression(tau2)
+    scratch = identification_regression(robot, t, q, tau2, **kw)
+    assert np.array_equal(reg2.W, scratch.W) and np.array_equal(reg2.y, scratch.y)
+    assert np.array_equal(reg1.W, reg2.W) and np.array_equal(reg2.joint, scratch.joint)
+    td = t[::10]
+    keep = (td >= t[0] + 0.15) & (td <= t[-1] - 0.15)
+    fast = np.abs(differentiate(q, 1e-3, 20.0, 4)[1][::10][keep]).reshape(-1) >= 0.02
+    y = decimate(tau2, 10, 20.0, 1000.0)[keep].reshape(-1)[fast]
+    assert np.array_equal(reg2.y, y)
+    both = design.regression(tau1 + tau2).y
+    assert np.allclose(both, reg1.y + reg2.y, rtol=0, atol=1e-12 * np.abs(both).max())
+    with pytest.raises(InputError, match="shape"):
+        design.regression(tau1[:-1])
 
 
 def test_truth_experiment_residuals_stay_inside_the_paper_bound(capsys):

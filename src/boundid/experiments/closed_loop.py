@@ -9,7 +9,8 @@ Each sample k (period h = 1 / fs_hz):
 and the robot's forward dynamics are integrated over [t_k, t_k+1) with Gamma held constant
 (zero-order hold) by ``substeps`` classical RK4 steps: the robot's compiled stepper when it
 offers one (:meth:`boundid.models.RobotModel.zoh_stepper`, the H4's warm-started Newton forward
-model), else RK4 on its ``forward_dynamics``.
+model), else RK4 on its ``forward_dynamics``. A robot may run the whole loop compiled
+(:meth:`boundid.models.RobotModel.compiled_closed_loop`, the H4 does): same operations, same numbers.
 """
 
 from __future__ import annotations
@@ -138,13 +139,22 @@ def simulate_closed_loop(robot, reference, duration: float, controller: JointPID
         raise InputError(f"feedforward must have shape ({len(t)}, {n}) (one torque per sample and joint), got "
                          f"{ff.shape}.")
     q = np.array(q_des[0] if q0 is None else as_vector(q0, "q0", n), float)
+    info = {"fs_hz": fs_hz, "amplifier_gain": amplifier_gain, "torque_limit": torque_limit,
+            "counts_per_rev": counts_per_rev, "substeps": int(substeps), "coulomb_width": coulomb_width}
+    v_max = limit / gain
+    compiled = robot.compiled_closed_loop()
+    if compiled is not None:  # the loop below, compiled by the robot (same operations, same numbers)
+        quantize_angle(q, counts_per_rev)  # checks counts_per_rev
+        Q, QD, QM, V, SAT = compiled(q, q_des, qd_des, ff, controller.kp, controller.ki,
+                                     controller.kd, h, gain, v_max, 2.0 * np.pi / counts_per_rev, int(substeps),
+                                     coulomb_width)
+        return ClosedLoopRun(t, Q, QD, QM, q_des, qd_des, V, gain * V, SAT, info)
     qd = np.zeros(n)
     Q, QD, QM, V, SAT = (np.empty((len(t), n)) for _ in range(5))
     integ = np.zeros(n)
     q_prev = quantize_angle(q, counts_per_rev)
     hint = None
     stepper = robot.zoh_stepper()
-    v_max = limit / gain
     for k in range(len(t)):
         qm = quantize_angle(q, counts_per_rev)
         v_est = (qm - q_prev) / h
@@ -160,6 +170,4 @@ def simulate_closed_loop(robot, reference, duration: float, controller: JointPID
             q, qd, hint = stepper(q, qd, gain * v, h, int(substeps), coulomb_width, hint)
         else:
             q, qd = _rk4_generic(robot, q, qd, gain * v, h, int(substeps), coulomb_width)
-    info = {"fs_hz": fs_hz, "amplifier_gain": amplifier_gain, "torque_limit": torque_limit,
-            "counts_per_rev": counts_per_rev, "substeps": int(substeps), "coulomb_width": coulomb_width}
     return ClosedLoopRun(t, Q, QD, QM, q_des, qd_des, V, gain * V, SAT.astype(bool), info)

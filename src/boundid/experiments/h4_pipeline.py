@@ -23,7 +23,7 @@ from boundid.errors import InputError
 from boundid.experiments.closed_loop import ClosedLoopRun, JointPID, simulate_closed_loop
 from boundid.experiments.measurement import TorqueNoise
 from boundid.experiments.preprocessing import decimate, differentiate
-from boundid.experiments.regression import Regression, inverse_dynamic, stack_joint_rows
+from boundid.experiments.regression import Regression, stack_joint_rows
 from boundid.experiments.trajectories import (
     SegmentedTrajectory,
     check_in_workspace,
@@ -46,6 +46,78 @@ def cutoff_from_bandwidth(bandwidth_hz: float, order: int = 4, max_distortion: f
     return float(bandwidth_hz * ((1 - max_distortion) / max_distortion) ** (1.0 / (2 * order)))
 
 
+@dataclass(frozen=True)
+class IdentificationDesign:
+    """The torque-free half of :func:`identification_regression`: what the motor angles fix.
+
+    rows : the regression with the torque side left at zero (W, joint, sample, t, info final);
+    shape : (N, n), that of the angles (and of the torques); keep : (N_d,) bool, the decimated
+    samples kept (edges dropped); fast : (R,) bool over the kept rows (sample-major), the rows
+    fast enough (``min_speed``), or None; decimation, fc [Hz], fs [Hz] : the torque's low-pass and
+    decimation (the regressor columns'). :meth:`regression` then costs one low-pass of the torque.
+    """
+
+    rows: Regression
+    shape: tuple[int, int]
+    keep: np.ndarray
+    fast: np.ndarray | None
+    decimation: int
+    fc: float
+    fs: float
+
+    def regression(self, tau) -> Regression:
+        """The identification regression of the measured torque tau (N, n) N m on these angles."""
+        tau = np.asarray(tau, float)
+        if tau.shape != self.shape:
+            raise InputError(f"tau must have the angles' shape {self.shape}, got {tau.shape}.")
+        taud = decimate(tau, self.decimation, self.fc, self.fs)
+        y = taud[self.keep].reshape(-1)
+        if self.fast is not None:
+            y = y[self.fast]
+        r = self.rows
+        return Regression(r.W, y, r.joint, r.sample, r.t, r.model, r.param_names, r.unit, dict(r.info))
+
+
+def identification_design(robot, t, q, cutoff_hz: float, decimation: int = 10,
+                          decimation_cutoff_hz: float | None = None, jdot: str = "central",
+                          edge_s: float = 0.2, min_speed: float = 0.0, order: int = 4) -> IdentificationDesign:
+    """Steps 1-3 of the pipeline on the angles alone (arguments of :func:`identification_regression`)."""
+    t = np.asarray(t, float)
+    q = np.asarray(q, float)
+    if t.ndim != 1 or q.shape != (len(t), robot.n_joints):
+        raise InputError(f"need t (N,) and q (N, {robot.n_joints}); got {t.shape}, {q.shape}.")
+    if jdot not in ("central", "analytic"):
+        raise InputError(f"jdot must be 'central' or 'analytic', got {jdot!r}.")
+    h = float(np.mean(np.diff(t)))
+    if np.max(np.abs(np.diff(t) - h)) > 1e-6 * h:
+        raise InputError("t must be uniformly sampled (the filters and differences assume it).")
+    fs = 1.0 / h
+    qf, qd, qdd = differentiate(q, h, cutoff_hz, order)
+    if jdot == "analytic":
+        Y = robot.regressor(qf, qd, qdd)
+    else:
+        J = robot.chains(robot.pose(qf), qf).J
+        Jd = np.gradient(J, h, axis=0, edge_order=2)
+        Y = robot.regressor_from_jacobians(qd, qdd, J, np.einsum("nij,nj->ni", Jd, qd))
+    fc = cutoff_hz if decimation_cutoff_hz is None else decimation_cutoff_hz
+    if decimation > 1 and fc >= 0.5 * fs / decimation:
+        raise InputError(f"decimation cut-off {fc:g} Hz must be below the new Nyquist {0.5 * fs / decimation:g} Hz;"
+                         " lower the cut-off or the decimation factor.")
+    N, n, p = Y.shape
+    Yd = decimate(Y.reshape(N, n * p), decimation, fc, fs).reshape(-1, n, p)
+    td = t[::decimation]
+    keep = (td >= t[0] + edge_s) & (td <= t[-1] - edge_s)
+    info = {"cutoff_hz": cutoff_hz, "decimation": decimation, "decimation_cutoff_hz": fc, "jdot": jdot,
+            "edge_s": edge_s, "min_speed": min_speed, "fs_hz": fs}
+    rows = stack_joint_rows(Yd[keep], np.zeros((int(keep.sum()), n)), td[keep], "inverse_dynamic",
+                            robot.param_names, info=info)
+    fast = None
+    if min_speed > 0:
+        fast = np.abs(qd[::decimation][keep]).reshape(-1) >= min_speed  # sample-major, like the rows
+        rows = rows.subset(fast)
+    return IdentificationDesign(rows, q.shape, keep, fast, decimation, fc, fs)
+
+
 def identification_regression(robot, t, q, tau, cutoff_hz: float, decimation: int = 10,
                               decimation_cutoff_hz: float | None = None, jdot: str = "central",
                               edge_s: float = 0.2, min_speed: float = 0.0, order: int = 4) -> Regression:
@@ -59,41 +131,13 @@ def identification_regression(robot, t, q, tau, cutoff_hz: float, decimation: in
     drop the rows of joint j where the estimated |qd_j| < min_speed (there sign(qd) of the model is
     unreliable: at rest and at velocity reversals).
     Rows are sample-major (joint 0..3 of each kept sample); ``info`` records the settings.
+    The angles' half is :func:`identification_design` (reuse it when only the torque changes).
     """
-    t = np.asarray(t, float)
     q, tau = np.asarray(q, float), np.asarray(tau, float)
-    if t.ndim != 1 or q.shape != (len(t), robot.n_joints) or tau.shape != q.shape:
-        raise InputError(f"need t (N,), q and tau (N, {robot.n_joints}); got {t.shape}, {q.shape}, {tau.shape}.")
-    if jdot not in ("central", "analytic"):
-        raise InputError(f"jdot must be 'central' or 'analytic', got {jdot!r}.")
-    h = float(np.mean(np.diff(t)))
-    if np.max(np.abs(np.diff(t) - h)) > 1e-6 * h:
-        raise InputError("t must be uniformly sampled (the filters and differences assume it).")
-    fs = 1.0 / h
-    qf, qd, qdd = differentiate(q, h, cutoff_hz, order)
-    if jdot == "analytic":
-        full = inverse_dynamic(robot, qf, qd, qdd, tau, t)
-        Y = full.W.reshape(len(t), robot.n_joints, robot.p)
-    else:
-        J = robot.chains(robot.pose(qf), qf).J
-        Jd = np.gradient(J, h, axis=0, edge_order=2)
-        Y = robot.regressor_from_jacobians(qd, qdd, J, np.einsum("nij,nj->ni", Jd, qd))
-    fc = cutoff_hz if decimation_cutoff_hz is None else decimation_cutoff_hz
-    if decimation > 1 and fc >= 0.5 * fs / decimation:
-        raise InputError(f"decimation cut-off {fc:g} Hz must be below the new Nyquist {0.5 * fs / decimation:g} Hz;"
-                         " lower the cut-off or the decimation factor.")
-    N, n, p = Y.shape
-    Yd = decimate(Y.reshape(N, n * p), decimation, fc, fs).reshape(-1, n, p)
-    taud = decimate(tau, decimation, fc, fs)
-    td = t[::decimation]
-    keep = (td >= t[0] + edge_s) & (td <= t[-1] - edge_s)
-    info = {"cutoff_hz": cutoff_hz, "decimation": decimation, "decimation_cutoff_hz": fc, "jdot": jdot,
-            "edge_s": edge_s, "min_speed": min_speed, "fs_hz": fs}
-    reg = stack_joint_rows(Yd[keep], taud[keep], td[keep], "inverse_dynamic", robot.param_names, info=info)
-    if min_speed > 0:
-        fast = np.abs(qd[::decimation][keep]).reshape(-1) >= min_speed  # sample-major, like the rows
-        reg = reg.subset(fast)
-    return reg
+    if tau.shape != q.shape:
+        raise InputError(f"need q and tau of the same shape (N, {robot.n_joints}); got {q.shape}, {tau.shape}.")
+    return identification_design(robot, t, q, cutoff_hz, decimation, decimation_cutoff_hz, jdot, edge_s,
+                                 min_speed, order).regression(tau)
 
 
 @dataclass(frozen=True)

@@ -222,3 +222,37 @@ def rk4_zoh(q, qd, tau, x_hint, dt, substeps, P, V, W, side, updown, dims, theta
         qd = qd + hs / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v)
         x = x4
     return q, qd, x, True
+
+
+@njit(cache=True)
+def closed_loop(q, q_des, qd_des, ff, kp, ki, kd, h, gain, v_max, step, substeps, x0, P, V, W, side, updown,
+                dims, theta, struct, g, width, tol, max_iter):
+    """The sample loop of :func:`boundid.experiments.closed_loop.simulate_closed_loop` compiled for
+    the H4, the same operations in the same order (encoder rounding to ``step`` rad, PID with
+    conditional integration, clipped current reference, :func:`rk4_zoh` from the pose x0), so the
+    same numbers. q (4,) start angles; q_des, qd_des, ff (N, 4) (ff: feedforward torque added to
+    the PID's); kp, ki, kd, gain, v_max (4,).
+    Returns (Q, QD, QM, Vref, SAT, k): k the sample whose step left the reachable set (-1: none;
+    rows after k undefined)."""
+    N, n = q_des.shape
+    Q, QD, QM, Vr = np.empty((N, n)), np.empty((N, n)), np.empty((N, n)), np.empty((N, n))
+    SAT = np.zeros((N, n), np.bool_)
+    qd, integ = np.zeros(n), np.zeros(n)
+    q_prev = np.round(q / step) * step
+    x = x0.copy()
+    for k in range(N):
+        qm = np.round(q / step) * step
+        v_est = (qm - q_prev) / h
+        q_prev = qm
+        e = q_des[k] - qm
+        u = ff[k] + kp * e + ki * integ + kd * (qd_des[k] - v_est)
+        v = u / gain
+        sat = np.abs(v) >= v_max
+        integ += np.where(sat, 0.0, e * h)
+        v = np.minimum(np.maximum(v, -v_max), v_max)
+        Q[k], QD[k], QM[k], Vr[k], SAT[k] = q, qd, qm, v, sat
+        q, qd, x, ok = rk4_zoh(q, qd, gain * v, x, h, substeps, P, V, W, side, updown, dims, theta, struct, g,
+                               width, tol, max_iter)
+        if not ok:
+            return Q, QD, QM, Vr, SAT, k
+    return Q, QD, QM, Vr, SAT, -1

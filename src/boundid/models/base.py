@@ -138,6 +138,17 @@ class RobotModel(ABC):
         :meth:`forward_dynamics` (``hint`` is the robot's own warm start, None at first)."""
         return None
 
+    def compiled_closed_loop(self):
+        """The sample loop of :func:`boundid.experiments.closed_loop.simulate_closed_loop` compiled
+        for this robot, or None (the loop then runs in Python around :meth:`zoh_stepper`):
+        ``run(q0, q_des, qd_des, feedforward, kp, ki, kd, h, gain, v_max, step, substeps,
+        coulomb_width) -> (Q, QD, QM, V, SAT)`` with the same operations in the same order, hence
+        the same numbers. q0 (n,) rad; q_des (N, n) rad, qd_des (N, n) rad/s; feedforward (N, n)
+        N m, added to the PID torque before saturation (zeros: none); kp, ki, kd, gain, v_max (n,)
+        (PID gains, amplifier gain, current-reference limit); h s; step rad per encoder count.
+        Raises like the stepper when the robot leaves its reachable set."""
+        return None
+
     def workspace_excursion(self, q, margin: float = 0.0) -> float:
         """How far joint positions q (N, n) take the robot out of its workspace (0 = inside; a
         robot without a workspace gives 0)."""

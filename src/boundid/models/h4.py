@@ -339,6 +339,26 @@ class H4Robot(H4Kinematics, RobotModel):
 
         return step
 
+    def compiled_closed_loop(self):
+        """The closed loop compiled around ``_h4_kernels.rk4_zoh`` (``_h4_kernels.closed_loop``),
+        from the home pose; raises UnreachablePoseError like :meth:`zoh_stepper`."""
+        args = self.step_kernel_args()
+        home = np.asarray(self.geometry.home, float)
+
+        def run(q0, q_des, qd_des, feedforward, kp, ki, kd, h, gain, v_max, step, substeps, coulomb_width):
+            Q, QD, QM, V, SAT, failed = kern.closed_loop(
+                np.asarray(q0, float), *(np.ascontiguousarray(a, float) for a in (q_des, qd_des, feedforward)),
+                *(np.ascontiguousarray(a, float) for a in (kp, ki, kd)), float(h),
+                *(np.ascontiguousarray(a, float) for a in (gain, v_max)), float(step), int(substeps), home, *args,
+                float(coulomb_width), self.fk_tol, self.fk_max_iter)
+            if failed >= 0:
+                raise UnreachablePoseError(
+                    f"the simulated robot left its reachable set near q = {np.array2string(Q[failed], precision=4)} "
+                    "rad; lower the trajectory amplitude or stiffen the controller.")
+            return Q, QD, QM, V, SAT
+
+        return run
+
     def workspace_excursion(self, q, margin: float = 0.0) -> float:
         """Sum of squared excursions (relative to the box width) of the poses of q (N, 4) outside the
         workspace box shrunk by ``margin`` (a fraction of its width), plus 1 per sample where the

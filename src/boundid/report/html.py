@@ -270,13 +270,19 @@ class Page:
     def figure(self, fig: Figure, caption: str, *, name: str | None = None) -> Page:
         """A matplotlib figure: embedded as PNG, written as ``figures/<name>.png`` and ``.svg``.
 
-        The figure is rendered now, so the caller may close or reuse it afterwards.
+        The figure is rendered now, so the caller may close or reuse it afterwards. Its layout
+        (e.g. constrained) is computed once, for the PNG; the SVG reuses it.
         """
         if not isinstance(fig, Figure):
             raise InputError(f"Page.figure needs a matplotlib Figure, got {type(fig).__name__}.")
         png, svg = io.BytesIO(), io.BytesIO()
         fig.savefig(png, format="png", dpi=self.dpi, metadata={"Software": None})
-        fig.savefig(svg, format="svg", metadata={"Date": None, "Creator": None})
+        engine = fig.get_layout_engine()
+        fig.set_layout_engine("none")  # the axes stay where the PNG's layout put them
+        try:
+            fig.savefig(svg, format="svg", metadata={"Date": None, "Creator": None})
+        finally:
+            fig.set_layout_engine(engine)
         self._n_figures += 1
         self._sections[-1].blocks.append(
             _Figure(png.getvalue(), svg.getvalue(), caption, _slug(name or caption, self._names), self._n_figures)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from boundid.experiments import regression as reg_builders
 from boundid.experiments.filters import align
-from boundid.experiments.h4_pipeline import identification_regression
+from boundid.experiments.h4_pipeline import IdentificationDesign, identification_design
 from boundid.experiments.recording import Recording
 from boundid.experiments.regression import Regression
 from boundid.models import RobotModel
@@ -18,11 +18,16 @@ def inverse_dynamic_rows(model: RobotModel, rec: Recording, pp: PreprocessingCon
     low-pass and central differences for qd, qdd; torques and regressor columns low-pass filtered
     and decimated together ("parallel filtering"); the first and last ``3 / f_c`` seconds, where the
     zero-phase filters start from assumed edge values, dropped."""
+    return inverse_dynamic_design(model, rec, pp).regression(rec.tau)
+
+
+def inverse_dynamic_design(model: RobotModel, rec: Recording, pp: PreprocessingConfig) -> IdentificationDesign:
+    """The angles' half of :func:`inverse_dynamic_rows` (its torque is ignored): reuse it for
+    recordings that differ only in their torque (new draws of the torque noise)."""
     h = rec.h
     fc = pp.lowpass_cutoff_hz or 0.8 * 0.5 / (h * pp.decimation)
-    return identification_regression(model, rec.t, rec.q, rec.tau, pp.lowpass_cutoff_hz, pp.decimation,
-                                     decimation_cutoff_hz=fc, jdot="analytic", edge_s=3.0 / fc,
-                                     min_speed=pp.min_speed_rad_s)
+    return identification_design(model, rec.t, rec.q, pp.lowpass_cutoff_hz, pp.decimation, decimation_cutoff_hz=fc,
+                                 jdot="analytic", edge_s=3.0 / fc, min_speed=pp.min_speed_rad_s)
 
 
 def build_regressions(model: RobotModel, rec: Recording, pp: PreprocessingConfig,

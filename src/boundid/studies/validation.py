@@ -25,7 +25,7 @@ from boundid.experiments.simulation import simulate_open_loop
 from boundid.models import RobotModel
 from boundid.studies.config import StudyConfig
 from boundid.studies.data import StudyData
-from boundid.studies.regressions import inverse_dynamic_rows
+from boundid.studies.regressions import inverse_dynamic_design, inverse_dynamic_rows
 
 
 @dataclass
@@ -177,8 +177,8 @@ def obe_breakdown_sweep(cfg: StudyConfig, model: RobotModel, data: StudyData, n_
     on the same noise-free motion, rebuild the OBE estimators' regression and refit every OBE
     estimator of the study. Open loop: the encoder and torque noise of the simulated motion; closed
     loop: the torque measurement noise on the recorded run (it is added to the recording only, so
-    the motion and the encoder angles are those of the run). None where no OBE runs or the data
-    are not simulated."""
+    the motion and the encoder angles are those of the run: the inverse-dynamic regressor is built
+    once, only its torque side per seed). None where no OBE runs or the data are not simulated."""
     from boundid.experiments.recording import Recording
     from boundid.experiments.simulation import measure
     from boundid.studies.estimation import run_estimator
@@ -195,6 +195,10 @@ def obe_breakdown_sweep(cfg: StudyConfig, model: RobotModel, data: StudyData, n_
                                   coulomb_width=exp.coulomb_width_rad_s)
     seeds = list(range(n_seeds))
     sweep = BreakdownSweep(seeds, ", ".join(regs), {f"{ec.label} / {rn}": [] for ec in obes for rn in ec.regressions})
+    design = None  # closed loop: the angles are the run's on every seed, so the regressor is built once
+    if traj is None and "inverse_dynamic" in regs:
+        design = inverse_dynamic_design(model, data.recording, cfg.preprocessing)
+    others = tuple(rn for rn in regs if design is None or rn != "inverse_dynamic")
     for k in seeds:
         rng = np.random.default_rng([cfg.seed, 2, k])
         if traj is not None:
@@ -203,7 +207,9 @@ def obe_breakdown_sweep(cfg: StudyConfig, model: RobotModel, data: StudyData, n_
         else:
             noise, _ = exp.torque_noise.sample(data.clean_tau.shape, rng)
             rec = Recording(t=data.recording.t, q=data.recording.q, tau=data.clean_tau + noise)
-        built = build_regressions(model, rec, cfg.preprocessing, tuple(regs))
+        built = build_regressions(model, rec, cfg.preprocessing, others)
+        if design is not None:
+            built["inverse_dynamic"] = design.regression(rec.tau)
         for ec in obes:
             for rn in ec.regressions:
                 try:
