@@ -265,7 +265,8 @@ def torque_bounds(
         for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
             handles.setdefault(lab, h)
     labels = list(handles)
-    fig.legend([handles[k] for k in labels], labels, loc="outside upper center", ncols=len(labels), frameon=False)
+    fig.legend([handles[k] for k in labels], labels, loc="outside upper center", ncols=min(len(labels), 3),
+               frameon=False)
     return fig
 
 

@@ -220,7 +220,7 @@ def _validation_section(page: Page, r: StudyResult) -> None:
                      "y = w^T theta_hat +- sqrt(w^T M^-1 w) of the OBE ([H4Paper] eq. 37), beside the 95 % "
                      "prediction band of WLS.")
         rows = {lab: {"kind": b.kind, "samples outside [%]": 100 * b.outside_fraction(measured),
-                      "mean half-width [N m]": float(np.mean(b.half_width))} for lab, b in bands.items()}
+                      "mean half-width [N m]": float(np.nanmean(b.half_width))} for lab, b in bands.items()}
         page.table(pd.DataFrame.from_dict(rows, orient="index").rename_axis("estimate"),
                    "Measured validation torques outside each band.", float_format="{:.3g}", name="crossval")
         main = next((lab for lab, b in bands.items() if b.kind == "guaranteed"), next(iter(bands)))
