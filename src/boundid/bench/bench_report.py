@@ -18,12 +18,15 @@ ROOT = Path(__file__).resolve().parents[3]
 
 GOALS = """
 `boundid report` -- what `make report` runs once the environment is installed -- on the
-repository's studies (studies/*.toml: the H4 and direct-drive studies), into a temporary folder,
+repository's studies (studies/*.toml: the H4, direct-drive and UR5 studies), into a temporary folder,
 in a fresh Python process, as a user would start it: imports, simulation, every estimator, the
 exact optima (LP bounds, SDP ellipsoids), the validation experiments and the pages with their
 figures. `wall_s`: its wall time; `cpu_s`: user + system CPU time of the process (what the time
 would be on an idle core: the machine's 2 cores are shared), with the 1-minute load average when it
-started. With --quick the run is skipped (it has no smaller size).
+started. The rows "study <name>" give each study's own run time as its page records it (the sum of
+its stages: data, regressions, estimators, exact optima, physical bounds, validation; the page and
+its figures not included), so the cost of each study is visible. With --quick the run is skipped
+(it has no smaller size).
 
 Goal (time of a report): `make report` <= 30 s, install excluded.
 """
@@ -47,7 +50,16 @@ def run(quick: bool = False) -> pd.DataFrame:
                         "--studies", str(ROOT / "studies"), "--out", str(Path(tmp) / "reports"), "--quiet"],
                        check=True, cwd=ROOT)
         wall = time.perf_counter() - t0
+        per_study = [{"case": f"study {folder.name}", "studies": 1, "wall_s": _stage_time(folder),
+                      "cpu_s": float("nan"), "load_avg_1min": load}
+                     for folder in sorted((Path(tmp) / "reports").iterdir()) if (folder / "tables/setup.csv").is_file()]
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return pd.DataFrame([{"case": "boundid report", "studies": len(studies), "wall_s": wall, "cpu_s": cpu,
-                          "load_avg_1min": load}])
+                          "load_avg_1min": load}] + per_study)
+
+
+def _stage_time(folder: Path) -> float:
+    """The study's run time [s] from its page's set-up table ("run time" = "<seconds> s (stages...)")."""
+    setup = pd.read_csv(folder / "tables" / "setup.csv", index_col=0).iloc[:, 0]
+    return float(str(setup["run time"]).split()[0])
