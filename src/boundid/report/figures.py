@@ -314,6 +314,10 @@ def trajectory_comparison(
     return fig
 
 
+#: a set shadow wider than this many times the exact shadow (on an axis) does not set the frame
+FRAME_SPAN = 20.0
+
+
 def projection_2d(
     polytope,
     sets: Mapping[str, ConvexSet],
@@ -335,8 +339,10 @@ def projection_2d(
     truth_2d : (2,) or None, marked with a star.
     box : (lo (2,), hi (2,)) or None, e.g. the exact LP bounds of the pair, drawn dashed.
 
-    The limits hold every set but John's ellipsoid (which may run past the frame); equal aspect
-    where both parameters have the same unit and comparable spans (within 4:1).
+    The limits hold the exact set, the LP box, the truth and every set but John's ellipsoid and
+    those more than :data:`FRAME_SPAN` times wider than the exact shadow on an axis (a wide prior
+    box would shrink everything else to a dot): these run past the frame, and their legend entry
+    says so. Equal aspect where both parameters have the same unit and comparable spans (within 4:1).
     """
     fig = Figure(figsize=(6.0, 4.0), dpi=DPI, layout="constrained")
     ax = fig.subplots()
@@ -352,10 +358,16 @@ def projection_2d(
             raise InputError("box must be (lo (2,), hi (2,)) with lo <= hi.")
         ax.add_patch(Rectangle(tuple(lo), *(hi - lo), fill=False, ls="--", lw=1.0,
                                edgecolor=PALETTE["LP exact"], label="LP exact bounds"))
-    for label, S in sets.items():
-        b = S.boundary(240)
+    reference = ([polytope.boundary()] if polytope is not None else []) + ([np.array([lo, hi])] if box is not None
+                                                                          else [])
+    ref_span = np.ptp(np.vstack(reference), axis=0) if reference else None
+    boundaries = {label: S.boundary(240) for label, S in sets.items()}
+    too_wide = {label for label, b in boundaries.items() if ref_span is not None and np.all(ref_span > 0)
+                and np.any(np.ptp(b, axis=0) > FRAME_SPAN * ref_span)}
+    for label, b in boundaries.items():
         st = style_for(label)
-        ax.plot(b[:, 0], b[:, 1], color=st.color, ls=st.linestyle, lw=1.4, label=label)
+        ax.plot(b[:, 0], b[:, 1], color=st.color, ls=st.linestyle, lw=1.4,
+                label=label + (" (past the frame)" if label in too_wide else ""))
         if centers is not None and label in centers:
             ax.plot(*np.asarray(centers[label], dtype=float), st.marker, color=st.color, ms=3)
     if truth_2d is not None:
@@ -363,9 +375,8 @@ def projection_2d(
         if tr.shape != (2,):
             raise InputError(f"truth_2d must be (2,), got shape {tr.shape}.")
         ax.plot(*tr, "*", color=PALETTE["truth"], ms=10, label="truth")
-    framed = [S.boundary(240) for label, S in sets.items() if not _frame_exempt(label)]
-    framed += [polytope.boundary()] if polytope is not None else []
-    framed += [np.array([lo, hi])] if box is not None else []
+    framed = [b for label, b in boundaries.items() if not _frame_exempt(label) and label not in too_wide]
+    framed += reference
     framed += [np.asarray(truth_2d, dtype=float)[None, :]] if truth_2d is not None else []
     if framed:  # limits from the exact set and the estimates; John's ellipsoid (p x the inner) may run past
         pts = np.vstack(framed)
