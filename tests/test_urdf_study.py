@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from boundid.errors import StudyError
+from boundid.errors import InputError, StudyError
 from boundid.models import BaseParameterModel, DirectDriveArm
 from boundid.studies.config import load_study
 from boundid.studies.runner import run_study
@@ -135,3 +135,20 @@ def test_urdf_options_are_checked(tmp_path):
     path.write_text(planar_study(tmp_path, extra_robot=', parameters = "minimal"'))
     with pytest.raises(StudyError, match="'base' or 'standard'"):
         load_study(path)
+
+
+def test_a_urdf_without_velocity_limits_gets_them_from_the_study(tmp_path):
+    """The tracking experiment needs velocity and acceleration limits; a file without them is refused
+    naming the study option, and robot.options velocity_limit supplies them (acceleration: 5 x per s)."""
+    from boundid.experiments.limited_trajectories import fourier_within_limits
+    from boundid.studies.registry import make_robot
+
+    text = planar_arm_urdf(tmp_path).read_text().replace(' velocity="6"', ' velocity="0"')  # 0: not given
+    (tmp_path / "nolimits.urdf").write_text(text)
+    bare = make_robot("urdf", {"source": str(tmp_path / "nolimits.urdf")})
+    with pytest.raises(InputError, match="robot.options velocity_limit"):
+        fourier_within_limits(bare, np.random.default_rng(0))
+    given = make_robot("urdf", {"source": str(tmp_path / "nolimits.urdf"), "velocity_limit": 4.0})
+    np.testing.assert_array_equal(given.limits.velocity, [4.0, 4.0])
+    np.testing.assert_array_equal(given.limits.acceleration, [20.0, 20.0])
+    fourier_within_limits(given, np.random.default_rng(0))

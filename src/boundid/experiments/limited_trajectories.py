@@ -43,7 +43,7 @@ def _limits(robot):
     if not (np.all(np.isfinite(limits.velocity)) and np.all(np.isfinite(limits.acceleration))):
         raise InputError(f"robot {robot.name} needs finite velocity and acceleration limits to bound an exciting "
                          f"trajectory, got {limits.velocity} and {limits.acceleration}; pass velocity_limit= and "
-                         "acceleration_limit= to its constructor.")
+                         "acceleration_limit= to its constructor (in a study: robot.options velocity_limit).")
     return limits
 
 

@@ -204,12 +204,12 @@ class UrdfRobot(RobotModel):
     @classmethod
     def from_options(cls, options: UrdfOptions) -> UrdfRobot:
         """The robot of a study's robot.options (its standard parameters; see :func:`urdf_robot`)."""
-        if options.viscous < 0 or options.coulomb < 0 or options.armature < 0:
-            raise InputError(f"viscous, coulomb and armature must be >= 0, got {options.viscous}, {options.coulomb}, "
-                             f"{options.armature}.")
+        if min(options.viscous, options.coulomb, options.armature, options.velocity_limit) < 0:
+            raise InputError(f"viscous, coulomb, armature and velocity_limit must be >= 0, got {options.viscous}, "
+                             f"{options.coulomb}, {options.armature}, {options.velocity_limit}.")
         return cls(options.source, joints=options.joints or None, viscous=options.viscous or None,
                    coulomb=options.coulomb or None, with_armature=options.armature > 0,
-                   armature=options.armature or None)
+                   armature=options.armature or None, velocity_limit=options.velocity_limit or None)
 
     def __init__(self, source: str | Path, joints: Sequence[str] | None = None, *, viscous=None, coulomb=None,
                  with_armature: bool = False, armature=None, with_offset: bool = False, offset=None,

@@ -36,6 +36,8 @@ class UrdfOptions:
     viscous, coulomb : true friction of every joint, N m s/rad and N m (URDFs rarely carry it;
         0 keeps the file's <dynamics damping=... friction=...>)
     armature : true motor inertia seen at every joint, kg m^2 (> 0 adds the parameters Ia_j)
+    velocity_limit : rad/s (m/s) for every joint, for a file without <limit velocity=...> (0: the
+        file's); the acceleration limit follows it (5 x the velocity limit per second)
     """
 
     source: str = "ur5"
@@ -44,3 +46,4 @@ class UrdfOptions:
     viscous: float = 0.0
     coulomb: float = 0.0
     armature: float = 0.0
+    velocity_limit: float = 0.0
