@@ -152,3 +152,18 @@ def test_a_urdf_without_velocity_limits_gets_them_from_the_study(tmp_path):
     np.testing.assert_array_equal(given.limits.velocity, [4.0, 4.0])
     np.testing.assert_array_equal(given.limits.acceleration, [20.0, 20.0])
     fourier_within_limits(given, np.random.default_rng(0))
+
+
+def test_the_study_exports_the_wls_estimate_into_a_urdf_that_reads_back(planar_run, tmp_path):
+    """Reference: the exported copy read back by pinocchio (a second parse of the file): its base
+    parameters K theta equal the WLS centre; the page names WLS and links the files."""
+    from boundid.models import UrdfRobot
+    from boundid.report.study_page import write_study_report
+
+    r = planar_run
+    page = write_study_report(r, tmp_path / "planar").read_text()
+    urdf = tmp_path / "planar" / "export" / f"{r.model.robot.name}_identified.urdf"
+    assert urdf.is_file() and (urdf.with_suffix(".yaml")).is_file() and "The WLS centre" in page
+    back = UrdfRobot(urdf)
+    wls = r.estimates[("WLS", "inverse_dynamic")].center
+    np.testing.assert_allclose(r.model.base.base(back.theta_true), wls, rtol=1e-9, atol=1e-12)

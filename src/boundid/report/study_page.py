@@ -714,7 +714,7 @@ def _exported_estimate(r: StudyResult):
     estimate on the exact regression, or None."""
     reg = r.config.exact.regression
     found = [(lab, e) for (lab, rn), e in r.estimates.items() if rn == reg and e.kind == "statistical"]
-    found.sort(key=lambda item: item[1].method != "wls")
+    found.sort(key=lambda item: item[1].method != "WLS")
     return found[0] if found else None
 
 
