@@ -62,10 +62,9 @@ def test_volume_chain_and_containment(p, N, seed):
         assert np.all(r.ellipsoid.contains(V))
     assert np.all(P.contains(boundary(inner.ellipsoid), rtol=1e-9))
     assert outer.info["max_reduced_cost"] <= outer.info["price_tol"]
-    # John's ellipsoid from an inner ellipsoid already solved is p x that one, vertex-checked again
-    reused = sdp.john_outer(P, inner=inner)
-    np.testing.assert_allclose(reused.ellipsoid.center, inner.ellipsoid.center)
-    np.testing.assert_allclose(reused.ellipsoid.shape, p**2 * inner.ellipsoid.shape * reused.info["vertex_repair"])
+    # John's ellipsoid is p x the inner one (solved once per P), vertex-checked
+    np.testing.assert_allclose(john.ellipsoid.center, inner.ellipsoid.center)
+    np.testing.assert_allclose(john.ellipsoid.shape, p**2 * inner.ellipsoid.shape * john.info["vertex_repair"])
 
 
 @pytest.mark.parametrize("seed,p,N,min_rounds", [(4, 3, 120, 1), (2, 2, 50, 2)])

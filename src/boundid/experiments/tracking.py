@@ -79,7 +79,7 @@ class TrackedRecording:
     trajectory: SegmentedTrajectory
 
 
-def exciting_trajectory(robot, rng: np.random.Generator, duration: float, cfg: TrackingConfig,
+def limited_fourier(robot, rng: np.random.Generator, duration: float, cfg: TrackingConfig,
                         info: dict, name: str) -> SegmentedTrajectory:
     """A Fourier trajectory within the limits, repeated to cover ``duration`` s (optimised if asked)."""
     period = min(cfg.period_s, duration)
@@ -116,7 +116,7 @@ def tracking_experiment(robot, rng: np.random.Generator,
     for name, duration in runs:
         if duration <= 0:
             continue
-        traj = exciting_trajectory(robot, rng, duration, cfg, info, name)
+        traj = limited_fourier(robot, rng, duration, cfg, info, name)
         t = np.arange(int(round(duration * cfg.fs_hz))) / cfg.fs_hz
         q_ref, qd_ref, qdd_ref = traj.evaluate(t)
         feedforward = robot.inverse_dynamics(q_ref, qd_ref, qdd_ref, prior)

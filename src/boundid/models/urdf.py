@@ -585,7 +585,7 @@ class UrdfRobot(RobotModel):
         unbounded = self._unbounded.any()
 
         def acceleration(q, v, tau, width):
-            friction = fv * v + fc * (np.tanh(v / width) if width > 0 else np.sign(v)) + off
+            friction = fv * v + fc * coulomb(v, width) + off
             Q = self._config(q[None])[0] if unbounded else q
             return pin.aba(model, data, Q, v, tau - friction)
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import platform
+import shutil
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -724,13 +725,16 @@ def _export_section(page: Page, r: StudyResult, folder: Path) -> None:
     if chosen is None:
         return
     label, est = chosen
+    folder.mkdir()
     try:
         paths = r.model.export_identified(est.center, folder)
     except RUN_FAILURES as exc:
+        shutil.rmtree(folder)
         page.section("Identified parameters, exported",
                      f"Exporting the {label} estimate failed and nothing was written: {exc}")
         return
-    if not paths:
+    if not paths:  # the robot has no format of its own
+        folder.rmdir()
         return
     for path in paths:
         page.attach(path.name, f"{folder.name}/{path.name}", f"{label} estimate, exported")
@@ -752,10 +756,6 @@ def write_study_report(r: StudyResult, out_dir: str | Path) -> Path:
     page = study_page(r)
     with replace_folder(out_dir, keep=("campaign",)) as tmp:
         r.table.to_csv(tmp / "results.csv", index=False)
-        export = tmp / "export"
-        export.mkdir()
-        _export_section(page, r, export)
-        if not any(export.iterdir()):
-            export.rmdir()
+        _export_section(page, r, tmp / "export")
         page.write(tmp / "index.html")
     return out_dir / "index.html"

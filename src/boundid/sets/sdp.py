@@ -482,7 +482,7 @@ def min_volume_bracket(P: Polytope, n_directions: int | None = None, rounds: int
                          {"rounds": rnd, "iterations": iters, "time_s": time.perf_counter() - t0})
 
 
-def john_outer(P: Polytope, allow_fallback: bool = False, inner: SDPResult | None = None) -> SDPResult:
+def john_outer(P: Polytope, allow_fallback: bool = False) -> SDPResult:
     """The maximum-volume inscribed ellipsoid scaled by p about its centre (John 1948: it
     contains P; factor p, not sqrt(p), since P is not centrally symmetric; [refs §SDP]).
 
@@ -494,10 +494,10 @@ def john_outer(P: Polytope, allow_fallback: bool = False, inner: SDPResult | Non
     enlargement; above, only the LP-bound and LP-found vertices are known and an enlargement
     beyond 1e-4 in squared radius raises SolverError (another vertex could be further out).
     ``info["vertex_repair"]``: the squared-radius factor applied (1 when none).
-    ``inner``: the result of :func:`inner_ellipsoid` on this P when already solved (default: solve it).
+    The inner ellipsoid is solved once per P (:func:`inner_ellipsoid` caches it on P).
     """
     t0 = time.perf_counter()
-    inner = inner_ellipsoid(P, allow_fallback=allow_fallback) if inner is None else inner
+    inner = inner_ellipsoid(P, allow_fallback=allow_fallback)
     ell = inner.ellipsoid.scaled(P.dim)
     V = _known_vertices(P)
     d2 = float(np.max(ell.mahalanobis2(V)))

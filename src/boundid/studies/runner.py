@@ -101,9 +101,8 @@ def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, set_estim
             except RUN_FAILURES as exc:
                 res.errors["bounds"] = _reason(exc)
             res.time_s["lp_bounds"] = time.perf_counter() - t0
-    solvers = {"outer": outer_ellipsoid, "inner": inner_ellipsoid,
-               "john": lambda P: john_outer(P, inner=res.sdp.get("inner"))}  # p x the inner one, solved once
-    for name in sorted(cfg.exact.sdp, key=lambda nm: nm == "john"):
+    solvers = {"outer": outer_ellipsoid, "inner": inner_ellipsoid, "john": john_outer}
+    for name in cfg.exact.sdp:
         with progress.stage(f"{cfg.name}: SDP {name} ellipsoid"):
             t0 = time.perf_counter()
             try:
