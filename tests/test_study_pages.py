@@ -21,10 +21,9 @@ from boundid.report import html as report_html
 from boundid.report.figure_check import figure_problems
 from boundid.report.study_page import clipped_intervals, numbers_stored, set_comparison, write_study_report
 from boundid.sets import Box, Ellipsoid
-from boundid.studies.config import load_study
 from boundid.studies.reproduction import VERDICTS, claims, drift, prior_bounds, shrank
 from boundid.studies.runner import run_study
-from tiny_study import tiny_study
+from tiny_study import measured_twin, run_study_text, tiny_study
 
 SMALL = tiny_study("dd_small", 11, ("filtered_dynamic", "supplied_energy", "filtered_power")) + """
 [[estimators]]
@@ -56,10 +55,7 @@ projections = [["th1", "th2"]]
 
 @pytest.fixture(scope="module")
 def small(tmp_path_factory):
-    path = tmp_path_factory.mktemp("study") / "dd_small.toml"
-    path.write_text(SMALL)
-    cfg = load_study(path)
-    return cfg, run_study(cfg)
+    return run_study_text(tmp_path_factory.mktemp("study"), "dd_small", SMALL)
 
 
 @pytest.fixture(scope="module")
@@ -165,19 +161,8 @@ def test_every_study_figure_passes_the_artist_check(drawn):
 def test_measured_data_show_no_truth(small, tmp_path):
     """A measured recording (written by the simulator) gives a page with no truth column, no
     deviation from truth and no paper tables, and no paper verdicts."""
-    from boundid.experiments.recording import Recording, write_recording
-
     cfg, r = small
-    rec = r.data.recording
-    csv = write_recording(Recording(rec.t, rec.q, rec.tau), tmp_path / "arm.csv")
-    text = SMALL.replace('source = "simulate"\nduration_s = 2.0\nsample_period_s = 0.0025',
-                         f'source = "measured"\n[experiment.measured]\nfile = "{csv.name}"\n'
-                         '[experiment.measured.columns]\ntime = "t"\nq = ["q1", "q2"]\ntau = ["tau1", "tau2"]')
-    text = text.replace("[experiment.noise]\nencoder_counts_per_rev = 65536\n"
-                        'torque = { kind = "uniform", level = 0.5 }\n', "")
-    path = tmp_path / "measured.toml"
-    path.write_text(text)
-    r2 = run_study(load_study(path))
+    _, r2 = run_study_text(tmp_path, "measured", measured_twin(SMALL, r, tmp_path))
     html = write_study_report(r2, tmp_path / "measured").read_text()
     assert "Table II" not in html and "Deviation from truth" not in html and "truth in set" not in html
     assert "Does it reproduce?" not in html and "measured data have no truth" in html

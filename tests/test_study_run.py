@@ -21,12 +21,10 @@ from PIL import Image
 
 from boundid.cli import main
 from boundid.estimators import Estimate
-from boundid.experiments.recording import Recording, write_recording
 from boundid.report.study_page import write_study_report
 from boundid.sets import Ellipsoid
-from boundid.studies.config import load_study
-from boundid.studies.runner import run_study, tidy_table
-from tiny_study import tiny_study
+from boundid.studies.runner import tidy_table
+from tiny_study import measured_twin, run_study_text, tiny_study
 
 SHORT = tiny_study("dd_short", 7, ("filtered_dynamic", "supplied_energy", "filtered_power", "inverse_dynamic"),
                    extra="\n[preprocessing]\nlowpass_cutoff_hz = 10.0\n") + """
@@ -55,10 +53,7 @@ projections = [["th1", "th2"]]
 
 @pytest.fixture(scope="module")
 def short_study(tmp_path_factory):
-    path = tmp_path_factory.mktemp("study") / "dd_short.toml"
-    path.write_text(SHORT)
-    cfg = load_study(path)
-    return cfg, run_study(cfg)
+    return run_study_text(tmp_path_factory.mktemp("study"), "dd_short", SHORT)
 
 
 def test_runner_tidy_table_and_guarantee(short_study):
@@ -147,16 +142,7 @@ def test_report_page_is_self_contained(short_study, tmp_path):
 def test_study_from_measured_csv(short_study, tmp_path):
     """A study on a recording written by the simulator gives the same estimates as the simulation."""
     cfg, r = short_study
-    rec = r.data.recording
-    csv = write_recording(Recording(rec.t, rec.q, rec.tau), tmp_path / "arm.csv")
-    text = SHORT.replace('source = "simulate"\nduration_s = 2.0\nsample_period_s = 0.0025',
-                         f'source = "measured"\n[experiment.measured]\nfile = "{csv.name}"\n'
-                         '[experiment.measured.columns]\ntime = "t"\nq = ["q1", "q2"]\ntau = ["tau1", "tau2"]')
-    text = text.replace("[experiment.noise]\nencoder_counts_per_rev = 65536\n"
-                        'torque = { kind = "uniform", level = 0.5 }\n', "")
-    path = tmp_path / "measured.toml"
-    path.write_text(text)
-    r2 = run_study(load_study(path))
+    _, r2 = run_study_text(tmp_path, "measured", measured_twin(SHORT, r, tmp_path))
     for key, est in r.estimates.items():
         np.testing.assert_allclose(r2.estimates[key].center, est.center, rtol=1e-9, atol=1e-12)
 

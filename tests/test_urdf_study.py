@@ -17,6 +17,7 @@ from boundid.models import BaseParameterModel, DirectDriveArm
 from boundid.studies.config import load_study
 from boundid.studies.runner import run_study
 from planar_urdf import planar_arm_urdf
+from tiny_study import run_study_text
 
 
 def planar_study(folder, control="tracking", extra_robot="") -> str:
@@ -78,9 +79,7 @@ sdp = []
 @pytest.fixture(scope="module")
 def planar_run(tmp_path_factory):
     folder = tmp_path_factory.mktemp("planar")
-    path = folder / "planar.toml"
-    path.write_text(planar_study(folder))
-    return run_study(load_study(path))
+    return run_study_text(folder, "planar", planar_study(folder))[1]
 
 
 def test_a_study_names_a_urdf_file_and_identifies_the_direct_drive_arm(planar_run):
