@@ -201,13 +201,13 @@ def test_projection_2d_draws_the_polygon_and_the_set_boundaries():
 
 def test_projection_2d_frames_the_exact_set_not_a_far_wider_one():
     """Reference: the unit square's shadow (closed form). A box 1000 x wider does not set the limits
-    (everything else would be a dot); it is drawn, and its legend entry says it runs past the frame."""
+    (everything else would be a dot); it is drawn, and its legend entry says it is off the frame."""
     square = VertexPolytope(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
     sets = {"Box": Box([-500.0, -500.0], [500.0, 500.0]), "OBE": Ellipsoid.ball([0.5, 0.5], 1.0)}
     ax = projection_2d(square, sets, [0.5, 0.5], ([0, 0], [1, 1]), ["a", "b"]).axes[0]
     assert ax.get_xlim()[1] - ax.get_xlim()[0] < 3.0 and ax.get_ylim()[1] - ax.get_ylim()[0] < 3.0
     labels = [ln.get_label() for ln in ax.lines]
-    assert "Box (past the frame)" in labels and "OBE" in labels
+    assert "Box (off frame)" in labels and "OBE" in labels
 
 
 def test_width_ratios_dots_are_width_over_exact_width():

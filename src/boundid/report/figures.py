@@ -367,7 +367,7 @@ def projection_2d(
     for label, b in boundaries.items():
         st = style_for(label)
         ax.plot(b[:, 0], b[:, 1], color=st.color, ls=st.linestyle, lw=1.4,
-                label=label + (" (past the frame)" if label in too_wide else ""))
+                label=label + (" (off frame)" if label in too_wide else ""))
         if centers is not None and label in centers:
             ax.plot(*np.asarray(centers[label], dtype=float), st.marker, color=st.color, ms=3)
     if truth_2d is not None:
@@ -387,7 +387,7 @@ def projection_2d(
         span = hi2 - lo2
         same_units = units is not None and units[0] == units[1]
         if same_units and span.min() > 0 and span.max() / span.min() <= 4.0:
-            ax.set_aspect("equal", adjustable="box")
+            ax.set_aspect("equal", adjustable="datalim")
     else:
         ax.autoscale_view()
     ax.set_xlabel(_label(names[0], units[0] if units is not None else None))
