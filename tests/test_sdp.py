@@ -69,7 +69,8 @@ def test_volume_chain_and_containment(p, N, seed):
 
 @pytest.mark.parametrize("seed,p,N,min_rounds", [(4, 3, 120, 1), (2, 2, 50, 2)])
 def test_inner_constraint_generation_equals_full_sdp(seed, p, N, min_rounds):
-    """The constraint-generation inner ellipsoid equals a direct cvxpy solve with every strip
+    """The constraint-generation inner ellipsoid (triangular factor, box frame) equals a direct
+    cvxpy solve with every strip in the other formulation, log det of the symmetric square root
     (second algorithm, unscaled but well conditioned here); the second case needs a second
     round of constraint generation (the seed sides alone are not enough)."""
     P = random_polytope(seed, p, N)

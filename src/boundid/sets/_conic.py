@@ -37,6 +37,11 @@ from boundid.errors import SolverError
 #: a pool row counts as violated above this (in the problem's scaled units)
 GEN_TOL = 1e-9
 _OK = (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
+#: Clarabel's linear algebra for every solve of the package: QDLDL, its single-threaded sparse LDL.
+#: Its default, faer on every core, was 5x slower on the study-scale problems on 2 cores (the UR5
+#: study's inscribed ellipsoid, 427 second-order cones: 5.3 s against 1.0 s a solve; 2.0 s with
+#: one faer thread), and one thread keeps a run's numbers the same from run to run.
+CLARABEL_LINALG = {"direct_solve_method": "qdldl"}
 #: Clarabel settings of the second attempt after a numerical failure
 RETRY = {"tol_gap_abs": 1e-7, "tol_gap_rel": 1e-7, "tol_feas": 1e-7, "static_regularization_constant": 1e-7}
 
@@ -237,7 +242,7 @@ def _solve(prob: cp.Problem, what: str) -> str:
         try:
             with warnings.catch_warnings():     # "may be inaccurate": the callers verify every answer
                 warnings.simplefilter("ignore", UserWarning)
-                prob.solve(solver=cp.CLARABEL, **settings)
+                prob.solve(solver=cp.CLARABEL, **CLARABEL_LINALG, **settings)
             status = prob.status
         except cp.error.SolverError as exc:
             status = f"solver error ({exc})"
