@@ -21,6 +21,8 @@ def test_support_and_intervals_match_sampled_boundary():
     pts = E.boundary(20001)
     d = np.array([0.3, -1.2])
     assert E.support(d) == pytest.approx((pts @ d).max(), rel=1e-6)
+    D = rng.normal(size=(7, 2))
+    np.testing.assert_allclose(E.supports(D), (D @ pts.T).max(axis=1), rtol=1e-6)
     lo, hi = E.intervals()
     np.testing.assert_allclose(lo, pts.min(axis=0), rtol=1e-6, atol=1e-9)
     np.testing.assert_allclose(hi, pts.max(axis=0), rtol=1e-6, atol=1e-9)

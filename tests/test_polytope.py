@@ -231,6 +231,20 @@ def test_support_point_is_a_maximiser():
         assert d @ x == pytest.approx(v, rel=1e-9, abs=1e-9) and P.contains(x, rtol=1e-8)
 
 
+def test_supports_equal_one_linprog_per_direction():
+    """supports (batched: one LP per distinct maximising vertex, the other directions answered
+    from its normal cone) equal one scipy linprog per direction on the full LP, p = 6; half the
+    directions are perturbed copies of others, so that normal cones are shared."""
+    rng = np.random.default_rng(12)
+    W, y, e, _ = random_problem(rng, 6, 200)
+    P = Polytope.from_strips(W, y, e)
+    D = rng.normal(size=(30, 6))
+    D = np.vstack([D, D + 1e-3 * rng.normal(size=D.shape)])
+    A_ub, b_ub = np.vstack([W, -W]), np.concatenate([y + e, e - y])
+    ref = [-linprog(-d, A_ub=A_ub, b_ub=b_ub, bounds=(None, None), method="highs").fun for d in D]
+    np.testing.assert_allclose(P.supports(D), ref, rtol=1e-9, atol=1e-9)
+
+
 def one_lp_per_side(W, y, e, box=None, halfspaces=None):
     """The textbook redundancy removal, kept here only as the independent reference: sequential
     elimination over every side of every strip in index order (upper, then lower side), each

@@ -51,13 +51,16 @@ def _instances(rng, p):
 @pytest.mark.parametrize("p", [2, 3])
 def test_support_and_intervals_agree_with_the_vertices(p):
     """support(d) = max over the vertices of d^T v (vertices: corners / sign combinations /
-    the given points); intervals() = (-support(-e_j), support(e_j))."""
+    the given points), one direction at a time and batched (supports); intervals() =
+    (-support(-e_j), support(e_j))."""
     rng = np.random.default_rng(10 + p)
     for S, V in _instances(rng, p):
         assert isinstance(S, ConvexSet)
         assert S.dim == p
-        for d in rng.normal(size=(20, p)):
+        D = rng.normal(size=(20, p))
+        for d in D:
             assert S.support(d) == pytest.approx(np.max(V @ d), rel=1e-12, abs=1e-12)
+        np.testing.assert_allclose(S.supports(D), np.max(D @ V.T, axis=1), rtol=1e-12, atol=1e-12)
         lo, hi = S.intervals()
         np.testing.assert_allclose(lo, V.min(axis=0), rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(hi, V.max(axis=0), rtol=1e-12, atol=1e-12)

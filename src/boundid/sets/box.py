@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from boundid._validation import as_float_array, as_vector
+from boundid._validation import as_float_array, as_matrix, as_vector
 from boundid.errors import InputError
 from boundid.sets._plane import closed, plane, require_2d
 
@@ -64,6 +64,11 @@ class Box:
         """max over B of d^T x = d^T c + |d|^T h (c centre, h half-widths)."""
         d = as_vector(direction, "direction", self.dim)
         return float(d @ self.center + np.abs(d) @ self.half_widths)
+
+    def supports(self, directions) -> np.ndarray:
+        """max over B of d^T x for each row d of ``directions`` (m, p)."""
+        D = as_matrix(directions, "directions", self.dim)
+        return D @ self.center + np.abs(D) @ self.half_widths
 
     def gauge(self, points) -> np.ndarray | float:
         """max_j |x_j - c_j| / h_j for each point (<= 1 inside; inf off a flat side)."""

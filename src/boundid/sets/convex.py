@@ -27,6 +27,10 @@ class ConvexSet(Protocol):
     def support(self, direction) -> float:
         """h(d) = max over x in the set of d^T x, for d (p,)."""
 
+    def supports(self, directions) -> np.ndarray:
+        """h(d) for each row d of ``directions`` (m, p): (m,), batched (one matrix product for
+        the closed-form families; for polytopes one LP per distinct maximising vertex)."""
+
     def contains(self, points, rtol: float = 1e-9):
         """Whether a point (p,) lies in the set (bool), or each of (m, p) points ((m,) bool).
 

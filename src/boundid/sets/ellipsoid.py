@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import gammaln
 
-from boundid._validation import as_float_array, as_spd, as_vector
+from boundid._validation import as_float_array, as_matrix, as_spd, as_vector
 from boundid.errors import InputError
 from boundid.sets._plane import closed, plane, require_2d
 
@@ -96,6 +96,11 @@ class Ellipsoid:
         """max over E of d^T x = d^T c + sqrt(d^T S d)."""
         d = as_vector(direction, "direction", self.dim)
         return float(d @ self.center + np.linalg.norm(self._chol.T @ d))
+
+    def supports(self, directions) -> np.ndarray:
+        """max over E of d^T x for each row d of ``directions`` (m, p)."""
+        D = as_matrix(directions, "directions", self.dim)
+        return D @ self.center + np.linalg.norm(D @ self._chol, axis=1)
 
     def extent(self, direction) -> tuple[float, float]:
         """(min, max) of d^T x over E."""

@@ -47,7 +47,7 @@ from dataclasses import dataclass, field
 import cvxpy as cp
 import numpy as np
 
-from boundid._validation import as_float_array, as_regression, as_vector
+from boundid._validation import as_float_array, as_matrix, as_regression, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
 from boundid.sets._conic import ConicProblem, InfeasibleProblem, Pool
 from boundid.sets._conic import _solve as _solve_conic
@@ -796,6 +796,10 @@ class ConstrainedEllipsoid:
     def support(self, direction) -> float:
         d = as_vector(direction, "direction", self.dim)
         return float(self._supports((d @ self.selector)[None, :])[0][0])
+
+    def supports(self, directions) -> np.ndarray:
+        """max of d^T S theta for each row d of ``directions`` (m, q) (one batch of conic solves)."""
+        return self._supports(as_matrix(directions, "directions", self.dim) @ self.selector)[0]
 
     def support_point(self, direction) -> tuple[float, np.ndarray]:
         """(max of d^T S theta, S theta at a maximiser)."""

@@ -741,6 +741,10 @@ class Polytope:
         """max over P of d^T theta (one LP)."""
         return self.support_point(direction)[0]
 
+    def supports(self, directions) -> np.ndarray:
+        """max over P of d^T theta for each row d of ``directions`` (m, p) (:meth:`support_points`)."""
+        return self.support_points(directions)[0]
+
     def intervals(self) -> tuple[np.ndarray, np.ndarray]:
         """The exact parameter bounds (lo, hi) of :meth:`bounds` (2p LPs, cached)."""
         b = self.bounds()

@@ -296,13 +296,18 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
     tightened slabs are widened by the LP tolerance so they contain P exactly; then every known
     point of P (all vertices for p <= 6; the LP-bound vertices and every vertex the supports
     produced) is checked to lie inside.
+
+    The result is cached on P (:func:`min_volume_bracket` reuses it).
     """
-    t0 = time.perf_counter()
-    origin, scale, zlo, zhi, b = _frame(P)
-    n = P.dim
     pool = np.arange(P.n_strips) if strips is None else np.unique(np.asarray(strips, dtype=int))
     if pool.size and (pool.min() < 0 or pool.max() >= P.n_strips):
         raise InputError(f"strips must be indices in [0, {P.n_strips}).")
+    key = ("outer", pool.tobytes(), allow_fallback, price_tol, batch, max_rounds)
+    if key in P._sdp_cache:
+        return P._sdp_cache[key]
+    t0 = time.perf_counter()
+    origin, scale, zlo, zhi, b = _frame(P)
+    n = P.dim
     G, c, h = P._unit_strips(origin, scale)
     # the interval of g_k^T z spanned by the points of P found so far (inside the true extent)
     lin, uin = np.full(P.n_strips, np.inf), np.full(P.n_strips, -np.inf)
@@ -407,11 +412,13 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
         raise SolverError(f"outer_ellipsoid: verification failed, {int(np.sum(~inside))} known points of P "
                           f"lie outside the certified ellipsoid ({solver}, {status}).")
     used = np.array(ws, dtype=int)
-    return SDPResult(ell, status, time.perf_counter() - t0, np.sort(used), solver,
-                     {"certificate_residual": mu, "n_constraints": len(mid), "vertices_checked": len(V),
-                      "rounds": rounds, "strips_tightened": int(np.sum(~np.isnan(exact_lo))),
-                      "support_lps": n_lp, "max_reduced_cost": max_rc, "price_tol": price_tol,
-                      "pool": int(pool.size)})
+    res = SDPResult(ell, status, time.perf_counter() - t0, np.sort(used), solver,
+                    {"certificate_residual": mu, "n_constraints": len(mid), "vertices_checked": len(V),
+                     "rounds": rounds, "strips_tightened": int(np.sum(~np.isnan(exact_lo))),
+                     "support_lps": n_lp, "max_reduced_cost": max_rc, "price_tol": price_tol,
+                     "pool": int(pool.size)})
+    P._sdp_cache[key] = res
+    return res
 
 
 @dataclass(frozen=True)

@@ -68,6 +68,11 @@ class VertexPolytope:
         d = as_vector(direction, "direction", self.dim)
         return float(np.max(self.vertices @ d))
 
+    def supports(self, directions) -> np.ndarray:
+        """max over the vertices of d^T v for each row d of ``directions`` (m, p)."""
+        D = as_matrix(directions, "directions", self.dim)
+        return np.max(D @ self.vertices.T, axis=1)
+
     def contains(self, points, rtol: float = 1e-9) -> np.ndarray | bool:
         """A x <= b + rtol * (the polytope's largest width), plus the rounding of the
         coordinates themselves (8 eps (|A| |x| + |b|)), for each point."""

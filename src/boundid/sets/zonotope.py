@@ -17,7 +17,7 @@ import numpy as np
 from scipy.optimize import linprog
 from scipy.special import logsumexp
 
-from boundid._validation import as_float_array, as_vector
+from boundid._validation import as_float_array, as_matrix, as_vector
 from boundid.errors import InputError, SolverError
 from boundid.sets._plane import closed, plane, require_2d
 
@@ -81,6 +81,11 @@ class Zonotope:
         """max over Z of d^T x = d^T c + |G^T d|_1."""
         d = as_vector(direction, "direction", self.dim)
         return float(d @ self.center + np.abs(self.generators.T @ d).sum())
+
+    def supports(self, directions) -> np.ndarray:
+        """max over Z of d^T x for each row d of ``directions`` (m, p)."""
+        D = as_matrix(directions, "directions", self.dim)
+        return D @ self.center + np.abs(D @ self.generators).sum(axis=1)
 
     def contains(self, points, rtol: float = 1e-9) -> np.ndarray | bool:
         """Whether each point lies in Z, allowing rtol of Z's half-width along each direction

@@ -101,8 +101,7 @@ def torque_bands(reg, n_joints: int, estimates: dict[str, Estimate]) -> dict[str
     for label, est in estimates.items():
         center = W @ est.center
         if est.set_membership:
-            upper = np.array([est.set.support(w) for w in W])
-            lower = np.array([-est.set.support(-w) for w in W])
+            upper, lower = est.set.supports(W), -est.set.supports(-W)
         elif est.statistics is not None:
             var = np.einsum("ij,jk,ik->i", W, est.statistics.cov, W)
             half = 1.96 * np.sqrt(var + est.statistics.row_noise_variance(joint))
