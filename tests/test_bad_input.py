@@ -322,6 +322,18 @@ def test_killed_write_leaves_the_previous_page_whole(tmp_path):
     assert after["index.html"] != before["index.html"] and after["results.csv"] != before["results.csv"]
 
 
+def test_studies_at_once_give_the_numbers_of_studies_in_turn(tmp_path):
+    """--jobs 2 (each study in a spawned process of its own) writes the same results.csv, byte for
+    byte, as --jobs 1 (in turn, in this process), for two studies of different seeds."""
+    a = _study(tmp_path, WLS_ONLY, "a.toml")
+    b = _study(tmp_path, WLS_ONLY.replace('name = "dd"', 'name = "dd2"').replace("seed = 3", "seed = 4"), "b.toml")
+    for jobs in ("1", "2"):
+        assert _cli(["run", a, b, "--out", str(tmp_path / jobs), "--quiet", "--jobs", jobs]) == 0
+    for name in ("dd", "dd2"):
+        assert (tmp_path / "2" / name / "results.csv").read_bytes() == (tmp_path / "1" / name / "results.csv").read_bytes()
+    assert (tmp_path / "1" / "dd" / "results.csv").read_bytes() != (tmp_path / "1" / "dd2" / "results.csv").read_bytes()
+
+
 @pytest.mark.parametrize("exchange", [True, False], ids=["renameat2", "two renames"])
 def test_replace_folder_swaps_and_recovers(tmp_path, monkeypatch, exchange):
     """The swap (atomic exchange, or the two-rename fallback) replaces the folder and carries the
