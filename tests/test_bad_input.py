@@ -329,9 +329,12 @@ def test_studies_at_once_give_the_numbers_of_studies_in_turn(tmp_path):
     b = _study(tmp_path, WLS_ONLY.replace('name = "dd"', 'name = "dd2"').replace("seed = 3", "seed = 4"), "b.toml")
     for jobs in ("1", "2"):
         assert _cli(["run", a, b, "--out", str(tmp_path / jobs), "--quiet", "--jobs", jobs]) == 0
+    def results(jobs, name):
+        return (tmp_path / jobs / name / "results.csv").read_bytes()
+
     for name in ("dd", "dd2"):
-        assert (tmp_path / "2" / name / "results.csv").read_bytes() == (tmp_path / "1" / name / "results.csv").read_bytes()
-    assert (tmp_path / "1" / "dd" / "results.csv").read_bytes() != (tmp_path / "1" / "dd2" / "results.csv").read_bytes()
+        assert results("2", name) == results("1", name)
+    assert results("1", "dd") != results("1", "dd2")
 
 
 @pytest.mark.parametrize("exchange", [True, False], ids=["renameat2", "two renames"])
