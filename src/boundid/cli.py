@@ -136,8 +136,8 @@ def _jobs(requested: int | None, n_studies: int) -> int:
 def _run_studies(configs, out: Path, quiet: bool, jobs: int = 1) -> list[tuple[str, Path, str]]:
     """Run each study and write its page to out/<name>/; (name, page, closing verdict line) of each,
     in the order of ``configs``. ``jobs`` > 1: that many studies at once, each in a process of its
-    own (spawned; a study's numbers do not depend on it), with a line per finished study instead of
-    progress bars."""
+    own (spawned; a study's numbers do not depend on it), started in order of decreasing experiment
+    samples, with a line per finished study instead of progress bars."""
     import time
     from concurrent.futures import ProcessPoolExecutor, as_completed
     from multiprocessing import get_context
@@ -150,7 +150,9 @@ def _run_studies(configs, out: Path, quiet: bool, jobs: int = 1) -> list[tuple[s
             return [_study_job(cfg, out, progress) for cfg in configs]
     t0, done = time.perf_counter(), {}
     with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
-        futures = {pool.submit(_study_process, cfg, out): cfg.name for cfg in configs}
+        # the longest experiments first, so that the short studies fill in at the end
+        by_length = sorted(configs, key=lambda c: -c.experiment.duration_s / c.experiment.sample_period_s)
+        futures = {pool.submit(_study_process, cfg, out): cfg.name for cfg in by_length}
         if not quiet:
             print(f"running {len(configs)} studies, {jobs} at a time")
         for fut in as_completed(futures):
