@@ -32,6 +32,7 @@ from pathlib import Path
 from string import Template
 
 import pandas as pd
+from matplotlib import rc_context
 from matplotlib.figure import Figure
 
 from boundid import __version__
@@ -280,7 +281,9 @@ class Page:
         engine = fig.get_layout_engine()
         fig.set_layout_engine("none")  # the axes stay where the PNG's layout put them
         try:
-            fig.savefig(svg, format="svg", metadata={"Date": None, "Creator": None})
+            # a fixed salt for the SVG's element ids (random by default): the same figure, the same file
+            with rc_context({"svg.hashsalt": "boundid"}):
+                fig.savefig(svg, format="svg", metadata={"Date": None, "Creator": None})
         finally:
             fig.set_layout_engine(engine)
         self._n_figures += 1
