@@ -8,12 +8,13 @@ import cvxpy as cp
 import numpy as np
 import pandas as pd
 
-from boundid.bench.bench_sets import STUDIES, _load, _study_regression
+from boundid.bench.bench_sets import PAPER_STUDIES, _load, _study_regression
 from boundid.estimators import OBE, ols
 from boundid.estimators.physical import physical_intersection, physical_least_squares
 from boundid.models import BaseParameterModel
 from boundid.models.direct_drive import PHYSICAL
 from boundid.sets import Box
+from boundid.sets._conic import CLARABEL_LINALG
 from boundid.sets.physical import PhysicalSet, column_bounds
 
 GOALS = """
@@ -66,8 +67,8 @@ def _reference(W, y, e, cons, box):
     p = W.shape[1]
     lo, hi = np.empty(p), np.empty(p)
     for j in range(p):
-        lo[j] = cp.Problem(cp.Minimize(theta[j]), parts).solve(solver=cp.CLARABEL)
-        hi[j] = cp.Problem(cp.Maximize(theta[j]), parts).solve(solver=cp.CLARABEL)
+        lo[j] = cp.Problem(cp.Minimize(theta[j]), parts).solve(solver=cp.CLARABEL, **CLARABEL_LINALG)
+        hi[j] = cp.Problem(cp.Maximize(theta[j]), parts).solve(solver=cp.CLARABEL, **CLARABEL_LINALG)
     return lo, hi
 
 
@@ -140,7 +141,7 @@ def _study_rows(quick: bool):
     from boundid.studies.registry import make_robot
 
     rows = []
-    for path in STUDIES:
+    for path in PAPER_STUDIES:   # the UR5 has its own rows (_urdf_rows)
         name, W, y, e, box = _study_regression(path)
         cfg = load_study(path)
         model = make_robot(cfg.robot, cfg.robot_options)

@@ -17,16 +17,16 @@ from boundid.bench.goals import Goal
 ROOT = Path(__file__).resolve().parents[3]
 
 GOALS = """
-`boundid report` -- what `make report` runs once the environment is installed -- on the
-repository's studies (studies/*.toml: the H4, direct-drive and UR5 studies), into a temporary folder,
-in a fresh Python process, as a user would start it: imports, simulation, every estimator, the
-exact optima (LP bounds, SDP ellipsoids), the validation experiments and the pages with their
-figures. The studies run at once, one per core (`--jobs`' default: each in a process of its own,
-the longest experiments first). `wall_s`: its wall time; `cpu_s`: user + system CPU time of the
-command and its study processes together (what the work would take on one idle core), with the
-1-minute load average when it started. The rows "study <name>" give each study's own run time as its page records it (the sum of
-its stages: data, regressions, estimators, exact optima, physical bounds, validation; the page and
-its figures not included), so the cost of each study is visible. With --quick the run is skipped
+`boundid report` -- what `make report` runs once the environment is installed -- on the repository's
+studies (studies/*.toml: the H4, direct-drive and UR5 studies), into a temporary folder, in a fresh
+Python process, as a user would start it: imports, simulation, every estimator, the exact optima (LP
+bounds, SDP ellipsoids), the validation experiments and the pages with their figures. The studies
+run at once, one per core (`--jobs`' default: each in a process of its own, the longest experiments
+first). `wall_s`: its wall time; `cpu_s`: user + system CPU time of the command and its study
+processes together (what the work would take on one idle core), with the 1-minute load average when
+it started. The rows "study <name>" give each study's own run time as its page records it (the sum
+of its stages: data, regressions, estimators, exact optima, physical bounds, validation; the page
+and its figures not included), so the cost of each study is visible. With --quick the run is skipped
 (it has no smaller size).
 
 Goal (time of a report): `make report` <= 30 s, install excluded.
