@@ -412,6 +412,8 @@ def test_constrained_ellipsoid_is_a_convex_set():
     lo, hi = S.intervals()
     assert S.contains(theta) and not S.contains(np.where(np.arange(9) == 6, -0.01, theta))
     assert S.support(np.eye(9)[4]) == pytest.approx(hi[4], rel=1e-7)
+    D = np.vstack([np.eye(9)[[4, 6]], -np.eye(9)[[4, 6]]])
+    np.testing.assert_allclose(S.supports(D), [hi[4], hi[6], -lo[4], -lo[6]], rtol=1e-7, atol=1e-9)
     sh = S.project(4, 6)
     assert sh.dim == 2 and sh.contains(theta[[4, 6]])
     ring = sh.boundary(16)

@@ -85,6 +85,33 @@ def test_inner_constraint_generation_equals_full_sdp(seed, p, N, min_rounds):
     assert r.info["working_sides"] < 2 * N and r.info["rounds"] >= min_rounds
 
 
+def test_inner_ellipsoid_when_the_triangular_form_fails():
+    """A polytope with halfspace priors on which Clarabel fails on the triangular-factor form (1 in
+    about 120 such random polytopes): the same working set is solved in the symmetric root's
+    log-det form, and the answer equals a direct cvxpy solve of that form with every side."""
+    r = np.random.default_rng(1)
+    W = r.normal(size=(60, 4))
+    y = W @ r.normal(size=4) + r.uniform(-1, 1, 60)
+    H, hv = r.normal(size=(3, 4)), np.abs(r.normal(size=3)) + 0.5
+    P = Polytope.from_strips(W, y, 1.0, halfspaces=(H, hv))
+    res = sdp.inner_ellipsoid(P)
+    assert res.info["formulation"].startswith("symmetric root")
+    B, x0 = cp.Variable((4, 4), PSD=True), cp.Variable(4)
+    A, b = np.vstack([W, -W, H]), np.concatenate([y + 1.0, 1.0 - y, hv])
+    cp.Problem(cp.Maximize(cp.log_det(B)), [cp.norm(A @ B, 2, axis=1) + A @ x0 <= b]).solve(solver=cp.CLARABEL)
+    assert res.ellipsoid.log_volume() == pytest.approx(Ellipsoid(x0.value, B.value @ B.value).log_volume(), abs=1e-5)
+    assert np.all(P.contains(boundary(res.ellipsoid), rtol=1e-9))
+
+
+def test_outer_ellipsoid_is_cached_per_arguments():
+    """outer_ellipsoid is solved once per polytope and arguments (the volume bracket reuses it); other
+    arguments solve again."""
+    P = random_polytope(3, 3, 60)
+    first = sdp.outer_ellipsoid(P)
+    assert sdp.outer_ellipsoid(P) is first and sdp.min_volume_bracket(P).upper_result is first
+    assert sdp.outer_ellipsoid(P, price_tol=1e-7) is not first
+
+
 def test_outer_p14_contains_lp_vertices_and_samples():
     """p = 14: the S-procedure ellipsoid contains the 28 LP-bound vertices and random points of
     P (hit-and-run-free check: convex combinations of those vertices), and its projections

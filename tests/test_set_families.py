@@ -22,6 +22,7 @@ from boundid.sets import (
     VertexPolytope,
     Zonotope,
     shadow,
+    support_values,
 )
 
 
@@ -67,6 +68,19 @@ def test_support_and_intervals_agree_with_the_vertices(p):
         E = np.eye(p)
         np.testing.assert_allclose(hi, [S.support(E[j]) for j in range(p)], rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(lo, [-S.support(-E[j]) for j in range(p)], rtol=1e-12, atol=1e-12)
+
+
+def test_support_values_asks_a_set_without_supports_once_per_row():
+    """support_values uses a family's batched supports, and a set of one's own that has only
+    support (the ConvexSet protocol asks no more) once per direction: the same values."""
+    box = Box([-1.0, 0.0], [1.0, 2.0])
+
+    class OnlySupport:
+        def support(self, d):
+            return box.support(d)
+
+    D = np.random.default_rng(5).normal(size=(6, 2))
+    np.testing.assert_allclose(support_values(OnlySupport(), D), support_values(box, D), rtol=1e-15)
 
 
 @pytest.mark.parametrize("p", [2, 3])

@@ -119,34 +119,33 @@ def _study_job(cfg, out: Path, progress=None) -> tuple[str, Path, str]:
     return cfg.name, write_study_report(result, out / cfg.name), run_verdict(result).line
 
 
-def _study_process(cfg, out: Path) -> tuple[str, Path, str]:
-    """:func:`_study_job` in a worker process of its own, with one BLAS/OpenMP thread (the
-    processes share the cores)."""
-    from threadpoolctl import threadpool_limits
-
-    with threadpool_limits(limits=1):
-        return _study_job(cfg, out)
+def _cores() -> int:
+    """The cores this process may run on (its CPU affinity, which a container or taskset narrows)."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
 def _jobs(requested: int | None, n_studies: int) -> int:
     """Studies run at once: ``requested``, else one per core, never more than there are studies."""
-    return max(1, min(n_studies, requested if requested is not None else (os.cpu_count() or 1)))
+    return max(1, min(n_studies, requested if requested is not None else _cores()))
 
 
 def _run_studies(configs, out: Path, quiet: bool, jobs: int = 1) -> list[tuple[str, Path, str]]:
     """Run each study and write its page to out/<name>/; (name, page, closing verdict line) of each,
-    in the order of ``configs``. ``jobs`` > 1: that many studies at once, each in a process of its
-    own (spawned; a study's numbers do not depend on it), started in order of decreasing experiment
-    samples, with a line per finished study instead of progress bars."""
+    in the order of ``configs``, with one BLAS/OpenMP thread per study. ``jobs`` > 1: that many
+    studies at once, each in a process of its own (spawned), started in order of decreasing
+    experiment samples, with a line per finished study instead of progress bars; a study that fails
+    (or Ctrl-C) cancels the studies not started yet, lets the running ones finish and is raised."""
     import time
     from concurrent.futures import ProcessPoolExecutor, as_completed
     from multiprocessing import get_context
+
+    from threadpoolctl import threadpool_limits
 
     from boundid.report.output import check_out_dir
 
     check_out_dir(out, tuple(cfg.name for cfg in configs))
     if jobs <= 1:
-        with _progress(quiet) as progress:
+        with _progress(quiet) as progress, threadpool_limits(limits=1):
             return [_study_job(cfg, out, progress) for cfg in configs]
     t0, done = time.perf_counter(), {}
     with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
@@ -155,11 +154,23 @@ def _run_studies(configs, out: Path, quiet: bool, jobs: int = 1) -> list[tuple[s
         futures = {pool.submit(_study_process, cfg, out): cfg.name for cfg in by_length}
         if not quiet:
             print(f"running {len(configs)} studies, {jobs} at a time")
-        for fut in as_completed(futures):
-            done[futures[fut]] = fut.result()   # a study's error is raised here
-            if not quiet:
-                print(f"  {futures[fut]}: written ({time.perf_counter() - t0:.0f} s)")
+        try:
+            for fut in as_completed(futures):
+                done[futures[fut]] = fut.result()   # a study's error is raised here
+                if not quiet:
+                    print(f"  {futures[fut]}: written ({time.perf_counter() - t0:.0f} s)")
+        except BaseException:
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
     return [done[cfg.name] for cfg in configs]
+
+
+def _study_process(cfg, out: Path) -> tuple[str, Path, str]:
+    """:func:`_study_job` in a worker process of its own, with one BLAS/OpenMP thread (as in turn)."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):
+        return _study_job(cfg, out)
 
 
 def cmd_run(args) -> int:

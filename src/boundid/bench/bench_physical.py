@@ -14,8 +14,8 @@ from boundid.estimators.physical import physical_intersection, physical_least_sq
 from boundid.models import BaseParameterModel
 from boundid.models.direct_drive import PHYSICAL
 from boundid.sets import Box
-from boundid.sets._conic import CLARABEL_LINALG
 from boundid.sets.physical import PhysicalSet, column_bounds
+from boundid.sets.sdp import CLARABEL_LINALG
 
 GOALS = """
 Physically consistent exact bounds: min and max of every parameter over

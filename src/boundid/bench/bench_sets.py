@@ -355,7 +355,7 @@ def run(quick: bool = False) -> pd.DataFrame:
     """Bounds for N = 1e3, 1e4, 1e5 (quick: 300, 3000) and SDP ellipsoids for m = 50, 200, 1000
     (quick: 50), p = 14, the references in the same run (cvxpy only up to N = 1e4: at N = 1e5 its
     28 solves took 380 s on the 2-core machine, against 160 s for linprog and 0.63 s for ours);
-    then the two studies' exact stages (quick: without the previous-method reference) and LP
+    then the three studies' exact stages (quick, and the UR5: without the previous-method reference) and LP
     bounds at N = 1e6, 1e7 (quick: 1e5)."""
     rng = np.random.default_rng(2024)
     p = 14

@@ -5,7 +5,7 @@ names are loaded from here on first use.
 """
 
 from boundid.sets.box import Box
-from boundid.sets.convex import ConvexSet
+from boundid.sets.convex import ConvexSet, support_values
 from boundid.sets.ellipsoid import Ellipsoid, log_unit_ball_volume
 from boundid.sets.parallelotope import Parallelotope
 from boundid.sets.polytope import Bounds, Consistency, Polytope
@@ -16,7 +16,7 @@ _SDP = ("SDPResult", "VolumeBracket", "enclosing_ellipsoid", "inner_ellipsoid", 
         "outer_ellipsoid", "step_ellipsoid")
 
 __all__ = ["Ellipsoid", "log_unit_ball_volume", "Bounds", "Consistency", "Polytope", "Box", "ConvexSet",
-           "Parallelotope", "VertexPolytope", "Zonotope", "shadow", *_SDP]
+           "Parallelotope", "VertexPolytope", "Zonotope", "shadow", "support_values", *_SDP]
 
 
 def __getattr__(name: str):

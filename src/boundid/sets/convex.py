@@ -27,10 +27,6 @@ class ConvexSet(Protocol):
     def support(self, direction) -> float:
         """h(d) = max over x in the set of d^T x, for d (p,)."""
 
-    def supports(self, directions) -> np.ndarray:
-        """h(d) for each row d of ``directions`` (m, p): (m,), batched (one matrix product for
-        the closed-form families; for polytopes one LP per distinct maximising vertex)."""
-
     def contains(self, points, rtol: float = 1e-9):
         """Whether a point (p,) lies in the set (bool), or each of (m, p) points ((m,) bool).
 
@@ -54,3 +50,13 @@ class ConvexSet(Protocol):
     def boundary(self, n_points: int = 200) -> np.ndarray:
         """For a 2-D set only: its boundary as a closed polygon (m, 2), counter-clockwise, for
         drawing (vertices for polyhedral sets, ``n_points`` samples for curved ones)."""
+
+
+def support_values(S: ConvexSet, directions) -> np.ndarray:
+    """h_S(d) for each row d of ``directions`` (m, p): (m,). Every family of boundid has a batched
+    ``supports`` (one matrix product for the closed forms; for polytopes one LP per distinct
+    maximising vertex); a set of your own that has only ``support`` is asked once per row."""
+    batched = getattr(S, "supports", None)
+    if batched is not None:
+        return np.asarray(batched(directions), dtype=float)
+    return np.array([S.support(d) for d in np.atleast_2d(np.asarray(directions, dtype=float))])

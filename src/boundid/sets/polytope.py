@@ -721,9 +721,7 @@ class Polytope:
         """(max over P of d^T theta, a maximising vertex) for each row d of ``directions`` (m, p):
         values (m,), points (m, p). Batched: one LP per distinct optimal basis, every other
         direction in that basis's normal cone answered by the same vertex (no LP)."""
-        D = np.atleast_2d(as_float_array(directions, "directions"))
-        if D.ndim != 2 or D.shape[1] != self.dim or not np.all(np.isfinite(D)):
-            raise InputError(f"directions must be a finite (m, {self.dim}) array, got shape {D.shape}.")
+        D = as_matrix(directions, "directions", self.dim)
         if np.any(~np.any(D != 0, axis=1)):
             raise InputError("directions must not contain a zero row.")
         F = self._theta_frame()

@@ -45,7 +45,8 @@ class SDPResult:
 
     ellipsoid : the Ellipsoid (parameter units).
     status : solver status ("optimal", or "no_cut" when step_ellipsoid had nothing to cut).
-    time_s : wall time of the whole call (LPs, SDP solves, verification), s.
+    time_s : wall time of the whole call (LPs, SDP solves, verification), s; a result cached on
+        the polytope (inner, outer ellipsoids) keeps the time of the call that solved it.
     strips : indices of the strips of P the answer used (empty when not applicable).
     solver : "CLARABEL" or "SCS" (fallback), "" when no SDP was solved.
     info : extra facts (constraint-generation rounds, certificate residual, repair factor ...).
@@ -131,6 +132,25 @@ def _lower_triangle(n: int) -> sp.csr_matrix:
     return sp.csr_matrix((np.ones(i.size), (i * n + j, np.arange(i.size))), shape=(n * n, i.size))
 
 
+def _inscribed(Gw: np.ndarray, hw: np.ndarray, triangular: bool, allow_fallback: bool):
+    """max ln det M s.t. |M^T g_i| + g_i^T x0 <= h_i for the rows of (Gw, hw): ((solver, status), M, x0).
+    ``triangular``: M lower triangular, objective sum ln M_jj (second-order and exponential cones
+    only); else M symmetric positive semidefinite with cvxpy's log_det (two semidefinite cones)."""
+    n = Gw.shape[1]
+    x0 = cp.Variable(n)
+    if triangular:
+        tril = _lower_triangle(n)
+        M = cp.reshape(tril @ cp.Variable(tril.shape[1]), (n, n), order="C")
+        objective = cp.sum(cp.log(cp.diag(M)))
+    else:
+        M = cp.Variable((n, n), PSD=True)
+        objective = cp.log_det(M)
+    prob = cp.Problem(cp.Maximize(objective), [cp.norm(Gw @ M, 2, axis=1) + Gw @ x0 <= hw])
+    outcome = _solve(prob, allow_fallback, "inner_ellipsoid", study_scale=True)
+    Mv = M.value if triangular else 0.5 * (M.value + M.value.T)
+    return outcome, Mv, x0.value
+
+
 def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) -> SDPResult:
     """Maximum-volume ellipsoid inscribed in P (exact, convex; [refs §SDP]).
 
@@ -139,7 +159,9 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     every side of every strip and halfspace, and the LP bounding box (implied by P). A convex
     problem with second-order and exponential cones only, the same optimum as the symmetric
     square root's log-det form without its two semidefinite cones (12x faster at p = 22,
-    :mod:`boundid.bench.bench_sets`). Solved in the box
+    :mod:`boundid.bench.bench_sets`); should Clarabel fail on it (seen on about 1 in 120 small
+    random polytopes with halfspace priors), the same working set is solved in that log-det form
+    (``info["formulation"]`` says which answered). Solved in the box
     frame of P by constraint generation over the sides (a working set seeded with the sides
     active at the LP-bound vertices; the most violated sides added after each solve) so N = 1e5
     rows work. The answer is shrunk about x0 so that it lies inside P exactly (the solver may
@@ -161,15 +183,17 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     ws = np.zeros(len(h), dtype=bool)
     ws[act] = True
     rounds, solver, status = 0, "", ""
-    tril = _lower_triangle(n)
+    formulation = "triangular factor"
     while True:
         rounds += 1
         Gw, hw = np.vstack([G[ws], Gb]), np.concatenate([h[ws], hbox])
-        v, x0 = cp.Variable(tril.shape[1]), cp.Variable(n)
-        L = cp.reshape(tril @ v, (n, n), order="C")
-        prob = cp.Problem(cp.Maximize(cp.sum(cp.log(cp.diag(L)))), [cp.norm(Gw @ L, 2, axis=1) + Gw @ x0 <= hw])
-        solver, status = _solve(prob, allow_fallback, "inner_ellipsoid", study_scale=True)
-        Lv, xv = L.value, x0.value
+        if formulation == "triangular factor":
+            try:
+                (solver, status), Lv, xv = _inscribed(Gw, hw, triangular=True, allow_fallback=allow_fallback)
+            except SolverError:
+                formulation = "symmetric root (Clarabel failed on the triangular factor)"
+        if formulation != "triangular factor":
+            (solver, status), Lv, xv = _inscribed(Gw, hw, triangular=False, allow_fallback=allow_fallback)
         viol = (np.linalg.norm(G @ Lv, axis=1) + G @ xv - h) / (1 + np.abs(h))
         new = np.flatnonzero((viol > 1e-7) & ~ws)
         if new.size == 0:
@@ -177,7 +201,7 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
         if new.size > batch:
             new = new[np.argsort(viol[new])[-batch:]]
         ws[new] = True
-    # exact containment: shrink B about x0 until every side holds (x0 must be interior)
+    # exact containment: shrink L about x0 until every side holds (x0 must be interior)
     Ga, ha = np.vstack([G, Gb]), np.concatenate([h, hbox])
     slack = ha - Ga @ xv
     if np.any(slack <= 0):
@@ -191,7 +215,7 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     ell = Ellipsoid(origin + scale * xv, (scale[:, None] * (Lv @ Lv.T)) * scale[None, :])
     strips = np.unique(owner[ws][owner[ws] >= 0])
     res = SDPResult(ell, status, time.perf_counter() - t0, strips, solver,
-                    {"rounds": rounds, "working_sides": int(ws.sum()), "shrink": s})
+                    {"rounds": rounds, "working_sides": int(ws.sum()), "shrink": s, "formulation": formulation})
     P._sdp_cache[key] = res
     return res
 
@@ -454,7 +478,8 @@ def min_volume_bracket(P: Polytope, n_directions: int | None = None, rounds: int
                        vertices: bool = True, allow_fallback: bool = False) -> VolumeBracket:
     """Bracket ln vol of the minimum-volume ellipsoid containing P: [lower, upper].
 
-    upper: :func:`outer_ellipsoid`. lower: the dual bound of the minimum-volume ellipsoid around
+    upper: :func:`outer_ellipsoid` (cached on P: solved here only if no call has solved it, and then
+    timed here). lower: the dual bound of the minimum-volume ellipsoid around
     points of P found by LP (:func:`boundid.sets._mvee.mvee_dual`): the LP-bound vertices, every point the LPs on
     P have produced, and the supports of P along ``n_directions`` (default 20 p) random
     directions of the box frame (seeded: same seed, same numbers) and the principal axes of the

@@ -23,6 +23,7 @@ from boundid.errors import RUN_FAILURES
 from boundid.estimators import Estimate
 from boundid.experiments.simulation import simulate_open_loop
 from boundid.models import RobotModel
+from boundid.sets import support_values
 from boundid.studies.config import StudyConfig
 from boundid.studies.data import StudyData
 from boundid.studies.regressions import inverse_dynamic_design, inverse_dynamic_rows
@@ -101,7 +102,7 @@ def torque_bands(reg, n_joints: int, estimates: dict[str, Estimate]) -> dict[str
     for label, est in estimates.items():
         center = W @ est.center
         if est.set_membership:
-            upper, lower = est.set.supports(W), -est.set.supports(-W)
+            upper, lower = support_values(est.set, W), -support_values(est.set, -W)
         elif est.statistics is not None:
             var = np.einsum("ij,jk,ik->i", W, est.statistics.cov, W)
             half = 1.96 * np.sqrt(var + est.statistics.row_noise_variance(joint))
