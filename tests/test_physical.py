@@ -19,11 +19,10 @@ from boundid.errors import InfeasibleDataError, InputError, SolverError
 from boundid.estimators import OBE, ols
 from boundid.estimators.physical import physical_intersection, physical_least_squares
 from boundid.models import BaseParameterModel, DirectDriveArm, H4Robot, H4Truth, UrdfRobot
-from boundid.models.direct_drive import PHYSICAL
+from boundid.models.direct_drive import PHYSICAL, planar_arm_urdf
 from boundid.sets import Box
 from boundid.sets.constraints import pseudo_inertia
 from boundid.sets.physical import ConstrainedEllipsoid, PhysicalSet, physical_margin
-from planar_urdf import planar_arm_urdf
 
 # ---------------------------------------------------------------------- data
 

@@ -27,10 +27,9 @@ from boundid.experiments.simulation import simulate_open_loop, simulate_sampled
 from boundid.experiments.trajectories import FourierTrajectory, SegmentedTrajectory
 from boundid.models import DirectDriveArm
 from boundid.models.base_parameters import BaseParameterModel, base_parameters
-from boundid.models.direct_drive import PHYSICAL
+from boundid.models.direct_drive import PHYSICAL, planar_arm_urdf
 from boundid.models.urdf import EXAMPLE_ROBOTS, UrdfRobot, example_robots_dir
 from boundid.models.urdf_export import parameter_table, write_parameters, write_urdf
-from planar_urdf import planar_arm_urdf
 
 ARMS = ["ur5", "panda"]
 

@@ -1,6 +1,6 @@
-"""A study can name any URDF file: the direct-drive arm written as a 2-link URDF by the test
-(tests/planar_urdf.py), tracked in closed loop within the limits read from the file, identified in
-its base parameters.
+"""A study can name any URDF file: the direct-drive arm written as a 2-link URDF
+(boundid.models.direct_drive.planar_arm_urdf), tracked in closed loop within the limits read from
+the file, identified in its base parameters.
 
 Independent references: the built-in closed-form DirectDriveArm (torques of the identified
 model against its inverse dynamics), the LP guarantee (the base truth inside the exact bounds and
@@ -14,9 +14,9 @@ import pytest
 
 from boundid.errors import InputError, StudyError
 from boundid.models import BaseParameterModel, DirectDriveArm
+from boundid.models.direct_drive import planar_arm_urdf
 from boundid.studies.config import load_study
 from boundid.studies.runner import run_study
-from planar_urdf import planar_arm_urdf
 from tiny_study import run_study_text
 
 

@@ -12,7 +12,7 @@ from boundid.bench.bench_sets import PAPER_STUDIES, _load, _study_regression
 from boundid.estimators import OBE, ols
 from boundid.estimators.physical import physical_intersection, physical_least_squares
 from boundid.models import BaseParameterModel
-from boundid.models.direct_drive import PHYSICAL
+from boundid.models.direct_drive import PHYSICAL, planar_arm_urdf
 from boundid.sets import Box
 from boundid.sets.physical import PhysicalSet, column_bounds
 from boundid.sets.sdp import CLARABEL_LINALG
@@ -163,26 +163,6 @@ def _urdf_states(view, N, e, seed):
     return W, W @ view.theta_true + rng.uniform(-e, e, W.shape[0])
 
 
-def _planar_urdf(folder) -> str:
-    """The direct-drive arm's masses and lengths as a 2-link URDF (as in the tests)."""
-    P = PHYSICAL
-
-    def link(name, m, lc, I):
-        return (f'<link name="{name}"><inertial><origin xyz="0 0 {-lc}"/><mass value="{m}"/>'
-                f'<inertia ixx="{I}" ixy="0" ixz="0" iyy="{I}" iyz="0" izz="{I / 10}"/></inertial></link>')
-
-    def joint(name, parent, child, z, b, fc):
-        return (f'<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/>'
-                f'<origin xyz="0 0 {-z}"/><axis xyz="1 0 0"/><limit lower="-3.14" upper="3.14" velocity="6" '
-                f'effort="200"/><dynamics damping="{b}" friction="{fc}"/></joint>')
-    body = (link("l1", P["m1"], P["lc1"], P["I1"]) + link("l2", P["m2"], P["lc2"], P["I2"])
-            + joint("j1", "base", "l1", 0.0, P["b1"], P["fc1"]) + joint("j2", "l1", "l2", P["l1"], P["b2"], P["fc2"]))
-    path = f"{folder}/planar_arm.urdf"
-    with open(path, "w") as fh:
-        fh.write(f'<robot name="r"><link name="base"/>{body}</robot>')
-    return path
-
-
 def _urdf_rows(quick: bool):
     import tempfile
 
@@ -190,7 +170,7 @@ def _urdf_rows(quick: bool):
 
     rows = []
     with tempfile.TemporaryDirectory() as folder:
-        planar = BaseParameterModel(UrdfRobot(_planar_urdf(folder), gravity=[0.0, 0.0, -PHYSICAL["g"]]))
+        planar = BaseParameterModel(UrdfRobot(planar_arm_urdf(folder), gravity=[0.0, 0.0, -PHYSICAL["g"]]))
         W, y = _urdf_states(planar, 200, 20.0, seed=3)
         rows += _bounds_rows(f"URDF 2-link arm, base parameters (N={W.shape[0]}, p={planar.p}, +-20 N m)", W, y, 20.0,
                              planar.physical_constraints(), None, planar.theta_true, planar.param_names,

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -54,6 +55,27 @@ class DirectDriveOptions:
 
 #: Physical values of the CICESE direct-drive arm (docs/models.md), SI units.
 PHYSICAL = asdict(DirectDriveOptions())
+
+
+def planar_arm_urdf(folder, P: dict = PHYSICAL, name: str = "planar_arm.urdf") -> Path:
+    """The arm written as a 2-link URDF in ``folder`` (returns its path): joints about x, links hanging
+    along -z at q = 0, centres of mass on the link axes, the arm's viscous and Coulomb friction in
+    <dynamics>. With gravity (0, 0, -g) its dynamics are the arm's (the URDF tests check torques, mass
+    matrix, energy and base parameters against this module's closed forms)."""
+    def link(lname, m, lc, I):
+        return (f'<link name="{lname}"><inertial><origin xyz="0 0 {-lc}"/><mass value="{m}"/>'
+                f'<inertia ixx="{I}" ixy="0" ixz="0" iyy="{I}" iyz="0" izz="{I / 10}"/></inertial></link>')
+
+    def joint(jname, parent, child, z, b, fc):
+        return (f'<joint name="{jname}" type="revolute"><parent link="{parent}"/><child link="{child}"/>'
+                f'<origin xyz="0 0 {-z}"/><axis xyz="1 0 0"/>'
+                f'<limit lower="-3.14" upper="3.14" velocity="6" effort="200"/>'
+                f'<dynamics damping="{b}" friction="{fc}"/></joint>')
+    body = (link("l1", P["m1"], P["lc1"], P["I1"]) + link("l2", P["m2"], P["lc2"], P["I2"])
+            + joint("j1", "base", "l1", 0.0, P["b1"], P["fc1"]) + joint("j2", "l1", "l2", P["l1"], P["b2"], P["fc2"]))
+    path = Path(folder) / name
+    path.write_text(f'<robot name="r"><link name="base"/>{body}</robot>')
+    return path
 
 
 @njit(ACCELERATION, cache=True)
