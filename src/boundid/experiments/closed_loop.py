@@ -22,6 +22,7 @@ import numpy as np
 from boundid._validation import as_float_array, as_vector
 from boundid.errors import InputError
 from boundid.experiments.measurement import quantize_angle
+from boundid.models.base import rk4_hold
 
 
 @dataclass(frozen=True)
@@ -78,21 +79,8 @@ class ClosedLoopRun:
 
 
 def _rk4_generic(robot, q, qd, tau, dt, substeps, coulomb_width):
-    hs = dt / substeps
-
-    def f(q_, qd_):
-        return robot.forward_dynamics(q_, qd_, tau, coulomb_width=coulomb_width)
-
-    for _ in range(substeps):
-        a1 = f(q, qd)
-        q2, v2 = q + 0.5 * hs * qd, qd + 0.5 * hs * a1
-        a2 = f(q2, v2)
-        q3, v3 = q + 0.5 * hs * v2, qd + 0.5 * hs * a2
-        a3 = f(q3, v3)
-        q4, v4 = q + hs * v3, qd + hs * a3
-        a4 = f(q4, v4)
-        q, qd = q + hs / 6 * (qd + 2 * v2 + 2 * v3 + v4), qd + hs / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
-    return q, qd
+    return rk4_hold(lambda q_, qd_: robot.forward_dynamics(q_, qd_, tau, coulomb_width=coulomb_width),
+                    q, qd, dt, substeps)
 
 
 def zoh_step(robot, q, qd, tau, dt: float, substeps: int = 4, coulomb_width: float = 0.0, hint=None):

@@ -43,6 +43,22 @@ def coulomb(qd: np.ndarray, width: float = 0.0) -> np.ndarray:
     return np.sign(qd) if width == 0 else np.tanh(qd / width)
 
 
+def rk4_hold(acceleration, q: np.ndarray, qd: np.ndarray, dt: float, substeps: int) -> tuple[np.ndarray, np.ndarray]:
+    """(q, qd) after dt s of ``substeps`` classical RK4 steps on (q, qd), with qdd = acceleration(q, qd)
+    (the torque held constant inside it: a zero-order hold)."""
+    hs = dt / substeps
+    for _ in range(substeps):
+        a1 = acceleration(q, qd)
+        v2 = qd + 0.5 * hs * a1
+        a2 = acceleration(q + 0.5 * hs * qd, v2)
+        v3 = qd + 0.5 * hs * a2
+        a3 = acceleration(q + 0.5 * hs * v2, v3)
+        v4 = qd + hs * a3
+        a4 = acceleration(q + hs * v3, v4)
+        q, qd = q + hs / 6 * (qd + 2 * v2 + 2 * v3 + v4), qd + hs / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
+    return q, qd
+
+
 def per_state(method):
     """A contract method written for a batch (N, n) -> (N, ...) that, given a single state (n,) as
     its first argument, returns the result of that state without the leading axis."""

@@ -58,7 +58,7 @@ import pinocchio as pin
 
 from boundid._validation import as_float_array, as_vector
 from boundid.errors import InputError, SolverError
-from boundid.models.base import RobotModel, coulomb, per_state
+from boundid.models.base import RobotModel, coulomb, per_state, rk4_hold
 from boundid.models.limits import JointLimits
 from boundid.models.urdf_export import link_inertial_parameters, write_parameters, write_urdf
 from boundid.models.urdf_options import EXAMPLE_ROBOTS, UrdfOptions
@@ -590,16 +590,7 @@ class UrdfRobot(RobotModel):
             return pin.aba(model, data, Q, v, tau - friction)
 
         def step(q, qd, tau, dt, substeps, coulomb_width, hint):
-            hs = dt / substeps
-            for _ in range(substeps):  # classical RK4 on (q, qd)
-                a1 = acceleration(q, qd, tau, coulomb_width)
-                v2 = qd + 0.5 * hs * a1
-                a2 = acceleration(q + 0.5 * hs * qd, v2, tau, coulomb_width)
-                v3 = qd + 0.5 * hs * a2
-                a3 = acceleration(q + 0.5 * hs * v2, v3, tau, coulomb_width)
-                v4 = qd + hs * a3
-                a4 = acceleration(q + hs * v3, v4, tau, coulomb_width)
-                q, qd = q + hs / 6 * (qd + 2 * v2 + 2 * v3 + v4), qd + hs / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
+            q, qd = rk4_hold(lambda q_, v_: acceleration(q_, v_, tau, coulomb_width), q, qd, dt, substeps)
             if not math.isfinite(q.sum() + qd.sum()):
                 raise SolverError(f"the simulated {self.name} diverged (non-finite state) within {dt:g} s; lower "
                                   "the controller gains, raise substeps or widen coulomb_width.")
