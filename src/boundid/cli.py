@@ -110,12 +110,15 @@ def _refresh_index(out: Path, quiet: bool = True) -> Path:
 
 
 def _study_job(cfg, out: Path, progress=None) -> tuple[str, Path, str]:
-    """Run one study and write its page to out/<name>/: (name, page, closing verdict line)."""
+    """Run one study, with one BLAS/OpenMP thread, and write its page to out/<name>/: (name, page,
+    closing verdict line)."""
     from boundid.report.study_page import write_study_report
     from boundid.report.verdict import run_verdict
+    from boundid.studies.campaign import one_thread
     from boundid.studies.runner import run_study
 
-    result = run_study(cfg) if progress is None else run_study(cfg, progress=progress)
+    with one_thread():
+        result = run_study(cfg) if progress is None else run_study(cfg, progress=progress)
     return cfg.name, write_study_report(result, out / cfg.name), run_verdict(result).line
 
 
@@ -139,19 +142,17 @@ def _run_studies(configs, out: Path, quiet: bool, jobs: int = 1) -> list[tuple[s
     from concurrent.futures import ProcessPoolExecutor, as_completed
     from multiprocessing import get_context
 
-    from threadpoolctl import threadpool_limits
-
     from boundid.report.output import check_out_dir
 
     check_out_dir(out, tuple(cfg.name for cfg in configs))
     if jobs <= 1:
-        with _progress(quiet) as progress, threadpool_limits(limits=1):
+        with _progress(quiet) as progress:
             return [_study_job(cfg, out, progress) for cfg in configs]
     t0, done = time.perf_counter(), {}
     with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
         # the longest experiments first, so that the short studies fill in at the end
         by_length = sorted(configs, key=lambda c: -c.experiment.duration_s / c.experiment.sample_period_s)
-        futures = {pool.submit(_study_process, cfg, out): cfg.name for cfg in by_length}
+        futures = {pool.submit(_study_job, cfg, out): cfg.name for cfg in by_length}
         if not quiet:
             print(f"running {len(configs)} studies, {jobs} at a time")
         try:
@@ -163,14 +164,6 @@ def _run_studies(configs, out: Path, quiet: bool, jobs: int = 1) -> list[tuple[s
             pool.shutdown(wait=True, cancel_futures=True)
             raise
     return [done[cfg.name] for cfg in configs]
-
-
-def _study_process(cfg, out: Path) -> tuple[str, Path, str]:
-    """:func:`_study_job` in a worker process of its own, with one BLAS/OpenMP thread (as in turn)."""
-    from threadpoolctl import threadpool_limits
-
-    with threadpool_limits(limits=1):
-        return _study_job(cfg, out)
 
 
 def cmd_run(args) -> int:

@@ -183,17 +183,17 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     ws = np.zeros(len(h), dtype=bool)
     ws[act] = True
     rounds, solver, status = 0, "", ""
-    formulation = "triangular factor"
+    triangular = True
     while True:
         rounds += 1
         Gw, hw = np.vstack([G[ws], Gb]), np.concatenate([h[ws], hbox])
-        if formulation == "triangular factor":
-            try:
-                (solver, status), Lv, xv = _inscribed(Gw, hw, triangular=True, allow_fallback=allow_fallback)
-            except SolverError:
-                formulation = "symmetric root (Clarabel failed on the triangular factor)"
-        if formulation != "triangular factor":
-            (solver, status), Lv, xv = _inscribed(Gw, hw, triangular=False, allow_fallback=allow_fallback)
+        try:
+            (solver, status), Lv, xv = _inscribed(Gw, hw, triangular, allow_fallback)
+        except SolverError:
+            if not triangular:
+                raise
+            triangular = False        # Clarabel failed on the triangular factor: the log-det form
+            (solver, status), Lv, xv = _inscribed(Gw, hw, triangular, allow_fallback)
         viol = (np.linalg.norm(G @ Lv, axis=1) + G @ xv - h) / (1 + np.abs(h))
         new = np.flatnonzero((viol > 1e-7) & ~ws)
         if new.size == 0:
@@ -215,7 +215,9 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     ell = Ellipsoid(origin + scale * xv, (scale[:, None] * (Lv @ Lv.T)) * scale[None, :])
     strips = np.unique(owner[ws][owner[ws] >= 0])
     res = SDPResult(ell, status, time.perf_counter() - t0, strips, solver,
-                    {"rounds": rounds, "working_sides": int(ws.sum()), "shrink": s, "formulation": formulation})
+                    {"rounds": rounds, "working_sides": int(ws.sum()), "shrink": s,
+                     "formulation": "triangular factor" if triangular else
+                     "symmetric root (Clarabel failed on the triangular factor)"})
     P._sdp_cache[key] = res
     return res
 
