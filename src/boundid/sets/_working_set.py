@@ -1,10 +1,15 @@
-"""Constraint generation for LPs with many rows (HiGHS simplex, warm-started).
+"""Constraint generation for LPs with many rows (a warm-started simplex on a working set).
 
 A large LP  min c^T x  s.t.  lo_i <= a_i^T x + g_i t <= up_i  (i in a pool of up to ~1e7 rows)
 is solved on a small working set of rows; after each solve one pass over the whole pool finds
-the most violated rows, which are added, and HiGHS re-solves from its last basis (a row added
-to an optimal basis keeps it dual feasible, so the dual simplex needs few iterations). A point
+the most violated rows, which are added, and the LP is re-solved from its last basis (a row
+added to an optimal basis keeps it dual feasible, so the dual simplex needs few steps). A point
 that violates no pool row is optimal for the full LP (the working set is a relaxation).
+
+The working set has few columns and up to a few thousand dense rows: it is solved by the dense
+vertex simplex of :mod:`boundid.sets._vertex_lp` (10x faster per step there than HiGHS's sparse
+simplex), and by HiGHS whenever that one gives up (no feasible start, an infeasible or
+unbounded LP, a singular basis): HiGHS always gives the verdict on an infeasible or unbounded LP.
 
 Three things keep the passes few at N = 1e7:
 
@@ -35,12 +40,15 @@ from numba import njit
 from threadpoolctl import ThreadpoolController
 
 from boundid.errors import SolverError
+from boundid.sets._vertex_lp import OPTIMAL, vertex_simplex
 
 _INF = highspy.kHighsInf
 _STATUS = highspy.HighsModelStatus
 _AT_LOWER = highspy.HighsBasisStatus.kLower
 _AT_UPPER = highspy.HighsBasisStatus.kUpper
-_BASIC = highspy.HighsBasisStatus.kBasic
+#: a working-set row counts as satisfied within this, a multiplier as >= 0 above -this (the
+#: vertex simplex's certificate; HiGHS, when it answers, uses the same two tolerances)
+_FTOL = _DTOL = 1e-10
 #: rows per slice of a pass over the pool (bounds the temporaries at N = 1e7)
 CHUNK = 1 << 15
 #: a direction d is in the normal cone of a basis when its multipliers are >= -_CONE_TOL |d|
@@ -49,9 +57,10 @@ _BLAS = ThreadpoolController()
 
 
 def one_blas_thread(f):
-    """Run ``f`` with BLAS limited to one thread. The LP loop alternates HiGHS with many small
-    BLAS calls; idle OpenBLAS threads spin between them and take the core HiGHS needs (measured
-    here: LP bounds 2x faster at N = 1e5 and 1e6 with one BLAS thread, and no slower at 1e7)."""
+    """Run ``f`` with BLAS limited to one thread. The LP loop alternates the simplex with many
+    small BLAS calls; idle OpenBLAS threads spin between them and take the core the simplex needs
+    (measured with HiGHS: LP bounds 2x faster at N = 1e5 and 1e6 with one BLAS thread, and no
+    slower at 1e7)."""
 
     @functools.wraps(f)
     def run(*args, **kwargs):
@@ -327,7 +336,7 @@ class LPStatusError(Exception):
 
 
 class WorkingSetLP:
-    """A HiGHS model over ``n_cols`` columns whose rows are generated from ``blocks``.
+    """An LP over ``n_cols`` columns whose rows are generated from ``blocks``.
 
     Parameters
     ----------
@@ -354,30 +363,30 @@ class WorkingSetLP:
         self.batch = batch
         self.max_rounds = max_rounds
         self.in_ws = [np.zeros(b.m, dtype=bool) for b in self.blocks]
-        #: HiGHS row of each pool row in the working set (read only where in_ws; never filled)
+        #: working-set row of each pool row (read only where in_ws; never filled)
         self.row_of = [np.empty(b.m, dtype=np.int64) for b in self.blocks]
         #: the part of each block's pool that passes look at (None: all of it); the caller may
         #: leave out rows that no future optimum can violate (e.g. strips containing a box that
         #: contains the working set's polytope)
         self.active: list[np.ndarray | None] = [None] * len(self.blocks)
-        self._ws_coef = np.zeros((0, self.n_cols))      # working-set rows as added to HiGHS
-        self._ws_lo, self._ws_up = np.zeros(0), np.zeros(0)
         self.n_rows = 0
         self.n_solves = 0
+        #: solves that HiGHS answered because the vertex simplex gave up (see _solve)
+        self.n_highs = 0
         self.n_passes = 0
+        #: the LP in the dense form of :mod:`boundid.sets._vertex_lp`: the column bounds as unit
+        #: rows 0 .. n_cols - 1, then working-set row r as row n_cols + r
+        self._A = np.eye(self.n_cols)
+        self._lo, self._up = self.col_lo.copy(), self.col_hi.copy()
+        #: the last optimal basis (rows of _A, sides) and its vertex; None before the first solve
+        self._act: np.ndarray | None = None
+        self._side: np.ndarray | None = None
+        self._x: np.ndarray | None = None
         #: the last optimal basis of each objective of a multi-objective minimize_many (by the
-        #: bytes of its cost), so that each re-solve starts at its own vertex, not at the last one;
-        #: with its number of rows (reading a basis's row statuses costs 0.5 us a row)
-        self._bases: dict[bytes, tuple[highspy.HighsBasis, int]] = {}
-        h = highspy.Highs()
-        for name, val in (("output_flag", False), ("presolve", "off"), ("solver", "simplex"),
-                          ("primal_feasibility_tolerance", 1e-10), ("dual_feasibility_tolerance", 1e-10),
-                          ("threads", 1)):
-            h.setOptionValue(name, val)
-        lo = np.where(np.isfinite(self.col_lo), self.col_lo, -_INF)
-        hi = np.where(np.isfinite(self.col_hi), self.col_hi, _INF)
-        h.addVars(self.n_cols, lo, hi)
-        self.h = h
+        #: bytes of its cost), so that each re-solve starts at its own vertex, not at the last one
+        self._bases: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        #: HiGHS's copy of the LP, built the first time the vertex simplex gives up
+        self._h: highspy.Highs | None = None
         for b, rows in seed:
             self.add_rows(b, np.asarray(rows, dtype=np.int64))
 
@@ -393,17 +402,14 @@ class WorkingSetLP:
         vals, blo, bup = blk.rows_bounds(rows)
         if vals.shape[1] < self.n_cols:
             vals = np.hstack([vals, np.zeros((rows.size, self.n_cols - vals.shape[1]))])
-        ncol = self.n_cols
-        idx = np.broadcast_to(np.arange(ncol, dtype=np.int32), (rows.size, ncol)).ravel()
-        starts = np.arange(rows.size, dtype=np.int32) * ncol
-        lo = np.where(np.isfinite(blo), blo, -_INF)
-        up = np.where(np.isfinite(bup), bup, _INF)
-        self.h.addRows(rows.size, lo, up, vals.size, starts, idx, vals.ravel().astype(float))
+        vals = np.asarray(vals, dtype=float)
+        if self._h is not None:
+            _highs_rows(self._h, vals, blo, bup)
         self.in_ws[b][rows] = True
         self.row_of[b][rows] = np.arange(self.n_rows, self.n_rows + rows.size)
-        self._ws_coef = np.vstack([self._ws_coef, vals])
-        self._ws_lo = np.concatenate([self._ws_lo, blo])
-        self._ws_up = np.concatenate([self._ws_up, bup])
+        self._A = np.vstack([self._A, vals])
+        self._lo = np.concatenate([self._lo, blo])
+        self._up = np.concatenate([self._up, bup])
         self.n_rows += rows.size
 
     def take_basis(self, other: WorkingSetLP) -> None:
@@ -411,41 +417,27 @@ class WorkingSetLP:
         same pool rows in the same constraint set, seen in other coordinates (rescaled columns
         and rows, shifted bounds), so the vertices and their bases carry over and the next
         solves start where ``other`` stopped. Needs every working-set row of ``other`` here."""
-        src = np.full(self.n_rows, -1, dtype=np.int64)     # row of other for each row here
+        if other._act is None:
+            return
+        n = self.n_cols
+        here = np.full(n + other.n_rows, -1, dtype=np.int64)    # row of _A here for each of other's
+        here[:n] = np.arange(n)
         for b in range(len(self.blocks)):
-            ks = np.flatnonzero(self.in_ws[b] & other.in_ws[b])
-            src[self.row_of[b][ks]] = other.row_of[b][ks]
-        if np.any(src < 0) or np.unique(src).size != other.n_rows:
-            return
-
-        def mapped(basis):
-            status = list(basis.row_status)
-            basis.row_status = [status[j] if j < len(status) else _BASIC for j in src.tolist()]
-            return basis
-
-        self._bases = {k: (mapped(v), self.n_rows) for k, (v, _) in other._bases.items()}
-        basis = other.h.getBasis()
-        if basis.valid:
-            self.h.setBasis(mapped(basis))
-
-    def _restore(self, key: bytes) -> None:
-        """Set the basis kept for objective ``key``, rows added since then basic (their slacks:
-        the basis stays dual feasible, the dual simplex starts at that objective's vertex)."""
-        kept = self._bases.get(key)
-        if kept is None:
-            return
-        basis, n = kept
-        if n < self.n_rows:
-            basis.row_status = list(basis.row_status) + [_BASIC] * (self.n_rows - n)
-            self._bases[key] = (basis, self.n_rows)
-        self.h.setBasis(basis)
+            ks = np.flatnonzero(other.in_ws[b])
+            if not np.all(self.in_ws[b][ks]):
+                return
+            here[n + other.row_of[b][ks]] = n + self.row_of[b][ks]
+        self._act, self._side = here[other._act], other._side.copy()
+        self._bases = {k: (here[a], s.copy()) for k, (a, s) in other._bases.items()}
 
     def set_col_bounds(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Change the column bounds (+-inf allowed)."""
         self.col_lo, self.col_hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-        self.h.changeColsBounds(self.n_cols, np.arange(self.n_cols, dtype=np.int32),
-                                np.where(np.isfinite(self.col_lo), self.col_lo, -_INF),
-                                np.where(np.isfinite(self.col_hi), self.col_hi, _INF))
+        self._lo[: self.n_cols], self._up[: self.n_cols] = self.col_lo, self.col_hi
+        if self._h is not None:
+            self._h.changeColsBounds(self.n_cols, np.arange(self.n_cols, dtype=np.int32),
+                                     np.where(np.isfinite(self.col_lo), self.col_lo, -_INF),
+                                     np.where(np.isfinite(self.col_hi), self.col_hi, _INF))
 
     def ws_rows(self, b: int) -> np.ndarray:
         """Pool indices of block ``b`` in the working set."""
@@ -456,14 +448,15 @@ class WorkingSetLP:
         self.blocks[b].set_bounds(k, lo, up)
         if self.in_ws[b][k]:
             r = self.row_of[b][k]
-            self._ws_lo[r], self._ws_up[r] = lo, up
-            self.h.changeRowBounds(int(r), lo if np.isfinite(lo) else -_INF, up if np.isfinite(up) else _INF)
+            self._lo[self.n_cols + r], self._up[self.n_cols + r] = lo, up
+            if self._h is not None:
+                self._h.changeRowBounds(int(r), lo if np.isfinite(lo) else -_INF, up if np.isfinite(up) else _INF)
 
     # ------------------------------------------------------------------ passes over the pool
     def violators(self, X: np.ndarray, batch: int | None = None) -> list[list[tuple[int, np.ndarray]]]:
         """For each column x of X (n_cols, k): the ``batch`` (default ``self.batch``) most violated
         pool rows (violation above ``tol``) not in the working set, as a list of (block, rows);
-        one pass over the pool. Rows in the working set are HiGHS's to satisfy, to its own
+        one pass over the pool. Rows in the working set are the solver's to satisfy, to its own
         tolerance."""
         self.n_passes += 1
         batch = self.batch if batch is None else batch
@@ -499,14 +492,54 @@ class WorkingSetLP:
     # ------------------------------------------------------------------ solves
     def _solve(self, cost: np.ndarray, keep_basis: bool = False) -> np.ndarray:
         """argmin of cost^T x on the working set; ``keep_basis``: start from, and keep, the last
-        basis of this same objective."""
-        h = self.h
+        basis of this same objective.
+
+        The vertex simplex (:mod:`boundid.sets._vertex_lp`) starts from the last basis (primal
+        feasible for a new objective, dual feasible after rows were added for the same one), or
+        else from the corner of the column bounds that the objective picks (dual feasible when
+        that corner is finite). When it gives up, HiGHS solves the same LP and gives the verdict
+        on an infeasible or unbounded one."""
         cost = np.asarray(cost, dtype=float)
-        if keep_basis:
-            self._restore(cost.tobytes())
+        d = -cost
+        starts = []
+        kept = self._bases.get(cost.tobytes()) if keep_basis else None
+        if kept is not None or self._act is not None:
+            starts.append(kept if kept is not None else (self._act, self._side))
+        side = np.where(d >= 0, 1.0, -1.0)
+        if np.all(np.isfinite(np.where(side > 0, self.col_hi, self.col_lo))):
+            starts.append((np.arange(self.n_cols), side))
+        for act, side in starts:
+            act, side = act.copy(), side.copy()
+            status, x, _, _ = vertex_simplex(self._A, self._lo, self._up, d, act, side, _FTOL, _DTOL,
+                                             max(1000, 5 * self._A.shape[0]))
+            if status == OPTIMAL:
+                self._act, self._side, self._x = act, side, x
+                break
+        else:
+            x = self._highs_solve(cost)
+        self.n_solves += 1
+        if keep_basis and self._act is not None:
+            self._bases[cost.tobytes()] = (self._act, self._side)
+        return x.copy()
+
+    def _highs_solve(self, cost: np.ndarray) -> np.ndarray:
+        """argmin of cost^T x on the working set by HiGHS's dual simplex, which also takes its
+        basis as the vertex simplex's next start; raises LPStatusError if the LP is infeasible
+        or unbounded."""
+        self.n_highs += 1
+        if self._h is None:
+            self._h = h = highspy.Highs()
+            for name, val in (("output_flag", False), ("presolve", "off"), ("solver", "simplex"),
+                              ("primal_feasibility_tolerance", _FTOL), ("dual_feasibility_tolerance", _DTOL),
+                              ("threads", 1)):
+                h.setOptionValue(name, val)
+            h.addVars(self.n_cols, np.where(np.isfinite(self.col_lo), self.col_lo, -_INF),
+                      np.where(np.isfinite(self.col_hi), self.col_hi, _INF))
+            n = self.n_cols
+            _highs_rows(h, self._A[n:], self._lo[n:], self._up[n:])
+        h = self._h
         h.changeColsCost(self.n_cols, np.arange(self.n_cols, dtype=np.int32), cost)
         h.run()
-        self.n_solves += 1
         st = h.getModelStatus()
         if st == _STATUS.kNotset:
             # HiGHS stopped before solving (seen rarely after many warm re-solves: it rejects
@@ -522,9 +555,13 @@ class WorkingSetLP:
             raise SolverError(f"HiGHS stopped with status {h.modelStatusToString(st)} on a {self.n_rows}-row "
                               "working set of a problem already solved in well-scaled coordinates; report "
                               "this case (the data, or W, y, e_max) so the scaling can be improved.")
-        if keep_basis:
-            self._bases[cost.tobytes()] = (h.getBasis(), self.n_rows)
-        return np.array(h.getSolution().col_value)
+        basis = h.getBasis()
+        status = np.array([int(v.value) for v in list(basis.col_status) + list(basis.row_status)])
+        at = np.flatnonzero((status == int(_AT_UPPER.value)) | (status == int(_AT_LOWER.value)))
+        self._act, self._side = (at, np.where(status[at] == int(_AT_UPPER.value), 1.0, -1.0)) \
+            if at.size == self.n_cols else (None, None)
+        self._x = x = np.array(h.getSolution().col_value)
+        return x
 
     @one_blas_thread
     def minimize_many(self, costs: np.ndarray, levels: tuple[int, ...] = ()) -> np.ndarray:
@@ -565,30 +602,16 @@ class WorkingSetLP:
         return x, float(np.asarray(cost, dtype=float) @ x)
 
     def active_normals(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """The constraints active at the optimal vertex x as (N, own, opp): outward normals N
-        (n_cols, n_cols), so that x is optimal for every direction in their cone; own, opp
-        (n_cols,): every point of the working set's polytope has N x <= own and -N x <= opp (the
-        other side of the same row or column bound; inf if it has none). The active set is read
-        from the activities (fast); at a degenerate vertex (more than n_cols active) from HiGHS's
-        basis, the nonbasic constraints. None if neither gives n_cols normals."""
-        act = self._ws_coef @ x
-        tol = 1e-9 * (1.0 + np.abs(act))
-        up, lo = act >= self._ws_up - tol, act <= self._ws_lo + tol
-        cu = x >= self.col_hi - 1e-9 * (1.0 + np.abs(x))
-        cl = x <= self.col_lo + 1e-9 * (1.0 + np.abs(x))
-        if int(up.sum() + lo.sum() + cu.sum() + cl.sum()) != self.n_cols:
-            basis = self.h.getBasis()
-            cs = np.array([int(s.value) for s in basis.col_status])
-            rs = np.array([int(s.value) for s in basis.row_status])
-            cu, cl = cs == int(_AT_UPPER.value), cs == int(_AT_LOWER.value)
-            up, lo = rs == int(_AT_UPPER.value), rs == int(_AT_LOWER.value)
-            if int(up.sum() + lo.sum() + cu.sum() + cl.sum()) != self.n_cols:
-                return None
-        I = np.eye(self.n_cols)
-        N = np.vstack([I[cu], -I[cl], self._ws_coef[up], -self._ws_coef[lo]])
-        own = np.concatenate([self.col_hi[cu], -self.col_lo[cl], self._ws_up[up], -self._ws_lo[lo]])
-        opp = np.concatenate([-self.col_lo[cu], self.col_hi[cl], -self._ws_lo[up], self._ws_up[lo]])
-        return N, own, opp
+        """The constraints of the optimal basis at x, the last solve's answer, as (N, own, opp):
+        outward normals N (n_cols, n_cols), so that x is optimal for every direction in their
+        cone; own, opp (n_cols,): every point of the working set's polytope has N x <= own and
+        -N x <= opp (the other side of the same row or column bound; inf if it has none).
+        None if x is not the last answer or that answer has no basis of n_cols constraints."""
+        if self._act is None or self._x is None or not np.array_equal(x, self._x):
+            return None
+        act, up = self._act, self._side > 0
+        lo_, up_ = self._lo[act], self._up[act]
+        return self._side[:, None] * self._A[act], np.where(up, up_, -lo_), np.where(up, -lo_, up_)
 
     @one_blas_thread
     def supports(self, dirs: np.ndarray, below: np.ndarray | None = None,
@@ -647,3 +670,14 @@ def supports(lp, dirs: np.ndarray, below: np.ndarray | None = None,
         values[pending[screened]] = ub[pending[screened]]
         pending = pending[~covered & ~screened]
     return values, np.array(verts), which
+
+
+def _highs_rows(h: highspy.Highs, vals: np.ndarray, lo: np.ndarray, up: np.ndarray) -> None:
+    """Append dense rows lo <= vals x <= up (+-inf allowed) to the HiGHS model h."""
+    m, n = vals.shape
+    if m == 0:
+        return
+    idx = np.broadcast_to(np.arange(n, dtype=np.int32), (m, n)).ravel()
+    starts = np.arange(m, dtype=np.int32) * n
+    h.addRows(m, np.where(np.isfinite(lo), lo, -_INF), np.where(np.isfinite(up), up, _INF), vals.size, starts, idx,
+              np.ascontiguousarray(vals, dtype=float).ravel())

@@ -1,0 +1,128 @@
+"""The dense vertex simplex of the working-set LPs, against scipy's linprog (HiGHS through scipy,
+a separate model built from the same numbers) and against closed forms on degenerate
+polytopes; and the working-set LP's hand-over to HiGHS when the vertex simplex gives up."""
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog
+
+from boundid.sets._vertex_lp import INFEASIBLE, NO_START, OPTIMAL, STEP_LIMIT, UNBOUNDED, vertex_simplex
+from boundid.sets._working_set import Block, LPStatusError, WorkingSetLP
+
+
+def _dense(G, lo, up, col_lo, col_hi):
+    n = G.shape[1]
+    return np.vstack([np.eye(n), G]), np.concatenate([col_lo, lo]), np.concatenate([col_hi, up])
+
+
+def _linprog_max(d, G, lo, up, col_lo, col_hi):
+    A_ub = np.vstack([G[np.isfinite(up)], -G[np.isfinite(lo)]])
+    b_ub = np.concatenate([up[np.isfinite(up)], -lo[np.isfinite(lo)]])
+    res = linprog(-d, A_ub=A_ub, b_ub=b_ub, bounds=list(zip(col_lo, col_hi, strict=True)), method="highs")
+    assert res.status == 0
+    return -res.fun
+
+
+def _corner(d):
+    return np.arange(d.size), np.where(d >= 0, 1.0, -1.0)
+
+
+def _strips(rng, m, n):
+    """m random unit strips around a point inside, most of them cutting the box [-1, 1]^n."""
+    G = rng.normal(size=(m, n))
+    G /= np.linalg.norm(G, axis=1)[:, None]
+    c = G @ rng.uniform(-0.2, 0.2, n)
+    half = rng.uniform(0.3, 1.5, m)
+    return G, c - half, c + half
+
+
+def test_optima_and_certificates_match_linprog():
+    rng = np.random.default_rng(0)
+    n, m = 8, 300
+    G, lo, up = _strips(rng, m, n)
+    col_lo, col_hi = -np.ones(n), np.ones(n)
+    A, LO, UP = _dense(G, lo, up, col_lo, col_hi)
+    act = side = None
+    for k in range(40):
+        d = rng.normal(size=n)
+        if act is None:                              # the first from the box corner (dual simplex)
+            act, side = _corner(d)
+        status, x, lam, _ = vertex_simplex(A, LO, UP, d, act, side, 1e-10, 1e-10, 10_000)
+        assert status == OPTIMAL                     # later ones warm, from the last vertex (primal)
+        assert d @ x == pytest.approx(_linprog_max(d, G, lo, up, col_lo, col_hi), abs=1e-9)
+        # the certificate: d = N^T lam with lam >= 0 over the basis rows, all active at x
+        N = side[:, None] * A[act]
+        np.testing.assert_allclose(N.T @ lam, d, atol=1e-10)
+        assert lam.min() >= -1e-10
+        np.testing.assert_allclose(N @ x, np.where(side > 0, UP[act], -LO[act]), atol=1e-10)
+        assert np.all(A @ x <= UP + 1e-10) and np.all(A @ x >= LO - 1e-10)
+
+
+@pytest.mark.parametrize("n", [3, 6])
+def test_degenerate_cross_polytope(n):
+    """|z|_1 <= 1 as 2^n rows: every vertex lies on 2^(n-1) of them (far more than n, the most
+    degenerate vertex there is); max d^T z = |d|_inf (closed form)."""
+    signs = np.array(np.meshgrid(*[[-1.0, 1.0]] * n)).reshape(n, -1).T
+    G = signs / np.sqrt(n)
+    up = np.full(len(G), 1 / np.sqrt(n))
+    A, LO, UP = _dense(G, np.full(len(G), -np.inf), up, -2 * np.ones(n), 2 * np.ones(n))
+    rng = np.random.default_rng(1)
+    act = side = None
+    for d in [*np.eye(n), *(-np.eye(n)), *rng.normal(size=(20, n)), np.ones(n)]:
+        if act is None:
+            act, side = _corner(d)
+        status, x, _, _ = vertex_simplex(A, LO, UP, d, act, side, 1e-10, 1e-10, 10_000)
+        assert status == OPTIMAL
+        assert d @ x == pytest.approx(np.abs(d).max(), abs=1e-12)
+
+
+def test_gives_up_with_a_status():
+    n = 3
+    G = np.array([[1.0, 0.0, 0.0]])
+    # infeasible: x_0 >= 2 inside the box [-1, 1]^3 (the dual simplex finds no leaving row)
+    A, LO, UP = _dense(G, np.array([2.0]), np.array([3.0]), -np.ones(n), np.ones(n))
+    act, side = _corner(np.ones(n))
+    assert vertex_simplex(A, LO, UP, np.ones(n), act, side, 1e-10, 1e-10, 100)[0] == INFEASIBLE
+    # unbounded: no upper bound along x_2 (start at a vertex of the lower corner)
+    A, LO, UP = _dense(G, np.array([-1.0]), np.array([1.0]), -np.ones(n), np.array([1.0, 1.0, np.inf]))
+    act, side = np.arange(n), -np.ones(n)
+    assert vertex_simplex(A, LO, UP, np.ones(n), act, side, 1e-10, 1e-10, 100)[0] == UNBOUNDED
+    # no step allowed; and a start that is neither primal nor dual feasible
+    A, LO, UP = _dense(G, np.array([-1.0]), np.array([0.5]), -np.ones(n), np.ones(n))
+    act, side = _corner(np.ones(n))
+    assert vertex_simplex(A, LO, UP, np.ones(n), act.copy(), side.copy(), 1e-10, 1e-10, 0)[0] == STEP_LIMIT
+    assert vertex_simplex(A, LO, UP, -np.ones(n), act, side, 1e-10, 1e-10, 100)[0] == NO_START
+
+
+def test_working_set_lp_matches_linprog_without_highs():
+    rng = np.random.default_rng(2)
+    n, m = 10, 2000
+    G, lo, up = _strips(rng, m, n)
+    lp = WorkingSetLP([Block(G, lo.copy(), up.copy())], -np.ones(n), np.ones(n), tol=1e-9)
+    D = rng.normal(size=(30, n))
+    vals, V, which = lp.supports(D)
+    ref = np.array([_linprog_max(d, G, lo, up, -np.ones(n), np.ones(n)) for d in D])
+    np.testing.assert_allclose(vals, ref, atol=1e-9)
+    np.testing.assert_allclose(np.einsum("ij,ij->i", D, V[which]), vals, atol=1e-12)
+    assert lp.n_highs == 0 and lp.n_solves > 0
+
+
+def test_highs_answers_when_the_vertex_simplex_cannot_start():
+    """No finite column bounds and no basis yet: HiGHS solves, its basis seeds the next solves;
+    an infeasible working set is reported by HiGHS's verdict."""
+    rng = np.random.default_rng(3)
+    n = 4
+    G, lo, up = _strips(rng, 40, n)
+    lp = WorkingSetLP([Block(G, lo.copy(), up.copy())], np.full(n, -np.inf), np.full(n, np.inf),
+                      seed=[(0, np.arange(40))], tol=1e-9)
+    d = rng.normal(size=n)
+    x, _ = lp.minimize(-d)
+    assert lp.n_highs == 1
+    assert d @ x == pytest.approx(_linprog_max(d, G, lo, up, np.full(n, -np.inf), np.full(n, np.inf)), abs=1e-9)
+    lp.minimize(-rng.normal(size=n))                 # warm from HiGHS's basis: no second hand-over
+    assert lp.n_highs == 1
+    bad = WorkingSetLP([Block(np.eye(n)[:1], np.array([2.0]), np.array([3.0]))], -np.ones(n), np.ones(n),
+                       seed=[(0, np.arange(1))])
+    with pytest.raises(LPStatusError, match="infeasible"):
+        bad.minimize(np.ones(n))
+    assert bad.n_highs == 1
