@@ -40,6 +40,8 @@ def test_ik_then_fk_returns_the_pose_over_the_workspace_grid(robot):
     geo = robot._geo
     xk = np.array([kern._fk1(qi, np.asarray(robot.geometry.home), *geo, 1e-12, 30)[0] for qi in q[:20]])
     assert np.max(np.abs(xk - x[:20])) < 1e-10
+    xb, ok = kern.fk_batch(q, np.tile(np.asarray(robot.geometry.home), (len(q), 1)), *geo, 1e-12, 30)
+    assert ok.all() and np.max(np.abs(xb - x)) < 1e-10     # the batch used by workspace_excursion
     assert robot.condition(x).max() < 50.0  # docs/models.md: cond(J) "below about 40" (42 at the box corners)
 
 

@@ -175,6 +175,17 @@ def dynamics1(q, qd, x0, P, V, W, side, updown, dims, theta, struct, g, width, t
 
 
 @njit(cache=True)
+def fk_batch(q, x0, P, V, W, side, updown, dims, tol, max_iter):
+    """_fk1 over N motor-angle vectors q (N, 4) from x0 (N, 4): poses x (N, 4), converged (N,)."""
+    n = q.shape[0]
+    xs = np.empty((n, 4))
+    ok = np.empty(n, np.bool_)
+    for k in range(n):
+        xs[k], ok[k] = _fk1(q[k], x0[k], P, V, W, side, updown, dims, tol, max_iter)
+    return xs, ok
+
+
+@njit(cache=True)
 def dynamics_batch(q, qd, x0, P, V, W, side, updown, dims, theta, struct, g, width, tol, max_iter):
     """dynamics1 over N states: M (N,4,4), b (N,4), x (N,4), converged (N,)."""
     n = q.shape[0]

@@ -27,7 +27,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from boundid._validation import as_float_array, as_matrix, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
-from boundid.sets._conic import CLARABEL_LINALG
+from boundid.sets._conic import CLARABEL_DENSE_LINALG, CLARABEL_LINALG
 from boundid.sets._mvee import mvee_dual
 from boundid.sets.ellipsoid import Ellipsoid
 from boundid.sets.polytope import LP_TOL, MAX_VERTEX_DIM, Polytope
@@ -60,8 +60,10 @@ class SDPResult:
     info: dict = field(default_factory=dict)
 
 
-def _solve(problem: cp.Problem, allow_fallback: bool, what: str, study_scale: bool = False) -> tuple[str, str]:
-    """Solve with Clarabel; returns (solver, status). SCS only with ``allow_fallback``.
+def _solve(problem: cp.Problem, allow_fallback: bool, what: str, study_scale: bool = False,
+           linalg: dict = CLARABEL_LINALG) -> tuple[str, str]:
+    """Solve with Clarabel (its linear algebra: ``linalg``); returns (solver, status). SCS only
+    with ``allow_fallback``.
 
     ``study_scale``: the polytope SDPs (inner, outer) run with gap and feasibility tolerances 1e-7
     (``_CLARABEL``): at the default 1e-8 Clarabel sometimes stalls on the study-scale problems
@@ -70,7 +72,7 @@ def _solve(problem: cp.Problem, allow_fallback: bool, what: str, study_scale: bo
     residual bounded), whatever the tolerance. The small SDPs keep the defaults.
     """
     try:
-        problem.solve(solver=cp.CLARABEL, **CLARABEL_LINALG, **(_CLARABEL if study_scale else {}))
+        problem.solve(solver=cp.CLARABEL, **linalg, **(_CLARABEL if study_scale else {}))
         status = problem.status
     except cp.error.SolverError as exc:
         status = f"solver error ({exc})"
@@ -253,7 +255,7 @@ def _s_procedure(Gs, mid, half, extra, allow_fallback: bool, what: str, study_sc
                  [Z, b0, -A0]])
     lmi = 0.5 * (M + M.T) << 0
     prob = cp.Problem(cp.Maximize(cp.log_det(A0)), [lmi])
-    solver, status = _solve(prob, allow_fallback, what, study_scale)
+    solver, status = _solve(prob, allow_fallback, what, study_scale, CLARABEL_DENSE_LINALG)
     tau_v = np.clip(tau.value, 0, None) if m else np.zeros(0)
     sig_v = np.clip(sig.value, 0, None) if extra else np.zeros(0)
     Zd = lmi.dual_value[: n + 1, : n + 1] if lmi.dual_value is not None else None
