@@ -177,9 +177,10 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     origin, scale, zlo, zhi, b = _frame(P)
     n = P.dim
     G, h, owner = _halfspaces_z(P, origin, scale)
-    # seed: sides active at the points of P the LPs found (the 2p LP optima certify the bounding
-    # box; the supports of outer_ellipsoid, when it ran first, outline P) + the box itself
-    Vz = (np.vstack([b.vertices(), P.found_points()]) - origin) / scale
+    # seed: sides active at the 2p LP-bound vertices + the box itself (seeding also with the
+    # hundreds of support points outer_ellipsoid leaves on P doubled the working set and the time:
+    # UR5 study, 968 sides in one round 2.8 s, against 422 in two rounds 1.7 s)
+    Vz = (b.vertices() - origin) / scale
     act = np.flatnonzero(np.any(Vz @ G.T >= h - 1e-7 * (1 + np.abs(h)), axis=0))
     Gb, hbox = np.vstack([np.eye(n), -np.eye(n)]), np.concatenate([zhi, -zlo])
     ws = np.zeros(len(h), dtype=bool)
