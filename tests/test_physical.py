@@ -233,7 +233,7 @@ def test_lp_case_matches_cvxpy():
     box = (robot.theta_true - 2.0, robot.theta_true + 2.0)
     S = PhysicalSet(W, y, 6.0, cons, box=box)
     b = S.bounds()
-    assert b.method == "LP (HiGHS)"
+    assert b.method == "LP (simplex)"
     assert_bounds_match(b, *cvxpy_bounds(W, y, 6.0, cons, box))
     assert S.consistency().gamma == pytest.approx(cvxpy_gamma(W, y, 6.0, cons, box), rel=1e-6)
     assert np.any(S.plain.bounds().lo < 0) and np.all(b.lo >= 0)

@@ -32,7 +32,7 @@ def test_h4_physical_bounds_equal_one_linprog_per_side():
     robot, W, y, e, box = h4_problem()
     P = Polytope(W, y, e, box=box)
     res = physical_stage(P, robot.physical_constraints(), robot.param_names, {}, robot.theta_true)
-    assert res.error is None and res.method == "LP (HiGHS)"
+    assert res.error is None and res.method == "LP (simplex)"
     A_ub, b_ub = np.vstack([W, -W]), np.concatenate([y + e, e - y])
     bounds = list(zip(np.maximum(box[0], 0.0), box[1], strict=True))
     t = res.intervals

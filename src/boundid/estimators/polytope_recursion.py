@@ -30,7 +30,7 @@ MAX_EXACT_DIM = 4
 #: the limited polytope widens each strip by this fraction of its bound, and each LP bound by
 #: this fraction of the old and new box widths: above the LP's tolerances (1e-9 of a strip's
 #: half-width, 1e-10 of the box), so that a feasible set shrunk to a point (errors exactly at
-#: the bounds) stays feasible for HiGHS and inside every box
+#: the bounds) stays feasible for the LP and inside every box
 LP_GUARD = 1e-8
 #: least clipped half-width of a strip in the limited polytope's LP, relative to the box's
 #: extent along the strip (keeps the LP's coefficients below 1 / LP_FLOOR)
@@ -210,7 +210,7 @@ class LimitedPolytopeRecursion(SetRecursion):
 
     1. a block row whose strip misses the box is an outlier (skipped or raised);
     2. Q = (kept strips) ∩ (block strips that cut the box) ∩ box contains the truth, and its
-       exact bounds (2p LPs, warm-started HiGHS with constraint generation, in the box's frame:
+       exact bounds (2p LPs, warm-started, with constraint generation, in the box's frame:
        :meth:`_block_lp`) become the new box; strips and bounds are widened by LP_GUARD (1e-8,
        relative), above the LP tolerances;
     3. the ``max_strips`` strips of Q with the least slack at the 2p bound vertices are kept

@@ -10,8 +10,8 @@ that also satisfies every other row is the LP's optimum.
 * primal simplex (x feasible): the row j with the most negative lam_j leaves along the edge
   e = -N^-1 e_j (d^T e = -lam_j > 0) up to the first row the edge meets;
 * dual simplex (lam >= 0, x violates rows): the most violated row i enters and replaces the
-  row j minimising lam_j / u_j over u = N^-T n_i > 0, which keeps lam >= 0 (Chvatal 1983,
-  ch. 10, in the vertex form of the bounded-variable simplex).
+  row j minimising lam_j / u_j over u = N^-T n_i > 0, which keeps lam >= 0 ([Chvatal1983]
+  ch. 10, in the vertex form of the bounded-variable simplex; [refs §LP]).
 
 Both ratio tests are Harris's two passes (the largest pivot among the nearly tied rows), and
 after 2 n steps that gain nothing the primal simplex leaves by Bland's rule (lowest row index)

@@ -15,8 +15,8 @@ What it offers, for the comparison with the plain polytope P = strips ∩ box:
 * :meth:`PhysicalSet.chebyshev_center`: a ball inside P_phys.
 
 How. With linear constraints and no lift, P_phys is a polytope: the LP layer solves it exactly
-(:class:`~boundid.sets.polytope.Polytope` with the constraints as its ``halfspaces``, HiGHS
-[HiGHS], constraint generation, vertex certificate). Otherwise (cones, LMIs, a lift) each
+(:class:`~boundid.sets.polytope.Polytope` with the constraints as its ``halfspaces``, the
+simplex of [refs §LP], constraint generation, vertex certificate). Otherwise (cones, LMIs, a lift) each
 optimum is a conic program solved by Clarabel [Clarabel] through cvxpy
 (:mod:`boundid.sets._conic`) by constraint generation over the strips, in the box frame of the
 plain polytope (theta = origin + scale * z, P spanning [-1, 1] along every z_j; unscaled, the
@@ -78,7 +78,7 @@ class PhysicalBounds:
     point : (p,) the mean of the 2p points: a point of the set (convexity).
     standard_argmin, standard_argmax : (p, n) the standard parameters x at those points (lifted
         constraints), else None.
-    method : "LP (HiGHS)" or "SOCP/SDP (Clarabel)".
+    method : "LP (simplex)" or "SOCP/SDP (Clarabel)".
     certificate : "simplex" (LP vertices checked, as the plain LP bounds), "dual bound" (outer
         side proven), or "attained" (points verified, optimality to the solver's tolerance).
     info : time_s, solver statistics, worst violation of the points (``primal_excess``: largest
@@ -243,7 +243,7 @@ class PhysicalSet:
 
     @property
     def method(self) -> str:
-        return "LP (HiGHS)" if self._lp is not None else "SOCP/SDP (Clarabel)"
+        return "LP (simplex)" if self._lp is not None else "SOCP/SDP (Clarabel)"
 
     def __repr__(self) -> str:
         return f"PhysicalSet(dim={self.dim}, strips={self.plain.n_strips}, {self.constraints!r}, {self.method})"

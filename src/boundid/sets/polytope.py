@@ -2,9 +2,10 @@
 
 P = {theta : |y_k - w_k^T theta| <= e_k for every row k}  (optionally  ∩ box ∩ {A theta <= b}).
 
-Every exact quantity here is an LP solved by HiGHS (``highspy``) with constraint generation
+Every exact quantity here is an LP solved with constraint generation
 (:mod:`boundid.sets._working_set`): a small working set of rows, the most violated rows of the
-whole data added after each solve, warm re-solves.
+whole data added after each solve, warm re-solves (a dense vertex simplex, HiGHS when it gives up
+and for every verdict of infeasibility).
 
 Well-scaled coordinates (the *frame*). The LPs never see theta itself but z with
 theta = origin + scale * z (element-wise), so that the answer does not depend on the units of
@@ -582,7 +583,7 @@ class Polytope:
 
     # ------------------------------------------------------------------ bounds and extents
     def bounds(self) -> Bounds:
-        """Exact min and max of every parameter over P (2p LPs, one warm HiGHS model).
+        """Exact min and max of every parameter over P (2p LPs on one warm working set).
 
         Raises InfeasibleDataError if P is empty, InputError if P is unbounded, SolverError if
         the vertices fail their certificate (see :class:`Bounds`).
@@ -1057,7 +1058,7 @@ class Polytope:
 
 
 def _chebyshev(H: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, float]:
-    """Chebyshev centre of {z : H z <= h} with unit-norm rows (one HiGHS LP)."""
+    """Chebyshev centre of {z : H z <= h} with unit-norm rows (one LP)."""
     m, n = H.shape
     eng = WorkingSetLP([Block(H, np.full(m, -np.inf), h.copy(), g=np.ones(m))],
                        np.append(np.full(n, -np.inf), 0.0), np.full(n + 1, np.inf), seed=[(0, np.arange(m))])
