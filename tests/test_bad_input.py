@@ -323,7 +323,7 @@ def test_killed_write_leaves_the_previous_page_whole(tmp_path):
 
 
 def test_studies_at_once_give_the_numbers_of_studies_in_turn(tmp_path):
-    """--jobs 2 (each study in a spawned process of its own) writes the same results.csv, byte for
+    """--jobs 2 (each study in a process of its own, forked from a fork server) writes the same results.csv, byte for
     byte, as --jobs 1 (in turn, in this process), for two studies of different seeds."""
     a = _study(tmp_path, WLS_ONLY, "a.toml")
     b = _study(tmp_path, WLS_ONLY.replace('name = "dd"', 'name = "dd2"').replace("seed = 3", "seed = 4"), "b.toml")

@@ -43,7 +43,7 @@ def test_optima_and_certificates_match_linprog():
     col_lo, col_hi = -np.ones(n), np.ones(n)
     A, LO, UP = _dense(G, lo, up, col_lo, col_hi)
     act = side = None
-    for k in range(40):
+    for _ in range(40):
         d = rng.normal(size=n)
         if act is None:                              # the first from the box corner (dual simplex)
             act, side = _corner(d)
@@ -126,3 +126,47 @@ def test_highs_answers_when_the_vertex_simplex_cannot_start():
     with pytest.raises(LPStatusError, match="infeasible"):
         bad.minimize(np.ones(n))
     assert bad.n_highs == 1
+
+
+def test_bound_flip_instead_of_a_false_unbounded_edge():
+    """The box [-1, 1]^2 from the corner (1, 1), max -x0 + x1/2: the edge leaving x0 <= 1 ends at
+    x0 >= -1, the other side of the same row (a bound flip); optimum 1.5 at (-1, 1)."""
+    A, LO, UP = _dense(np.zeros((0, 2)), np.zeros(0), np.zeros(0), -np.ones(2), np.ones(2))
+    act, side = np.arange(2), np.ones(2)
+    status, x, _, _ = vertex_simplex(A, LO, UP, np.array([-1.0, 0.5]), act, side, 1e-10, 1e-10, 100)
+    assert status == OPTIMAL
+    np.testing.assert_allclose(x, [-1.0, 1.0])
+
+
+def test_no_false_optimum_from_a_bad_basis():
+    """A basis row on an infinite side (no vertex) or whose own bounds cross (lo > up) is never
+    certified optimal."""
+    A, LO, UP = _dense(np.array([[1.0, 1.0]]) / np.sqrt(2), np.array([-np.inf]), np.array([np.inf]),
+                       -np.ones(2), np.ones(2))
+    status, x, _, _ = vertex_simplex(A, LO, UP, np.ones(2), np.array([0, 2]), np.ones(2), 1e-10, 1e-10, 100)
+    assert status != OPTIMAL
+    A, LO, UP = _dense(np.array([[1.0, 1.0]]) / np.sqrt(2), np.array([0.5]), np.array([0.2]), -np.ones(2), np.ones(2))
+    status, x, _, _ = vertex_simplex(A, LO, UP, np.ones(2), np.array([0, 2]), np.ones(2), 1e-10, 1e-10, 100)
+    assert status != OPTIMAL
+
+
+def test_polytope_without_a_prior_box_needs_highs_once():
+    """Without a prior box the first frame has no finite corner: HiGHS answers the first LP, its
+    basis then carries the vertex simplex (bound flips keep it from false unbounded edges).
+    Reference: the LP bounds against linprog on the same strips."""
+    rng = np.random.default_rng(0)
+    p, N, e = 6, 3000, 0.05
+    W = rng.normal(size=(N, p))
+    W = np.cumsum(W, axis=0) * 0.05 + W
+    y = W @ rng.normal(size=p) + rng.uniform(-e, e, N)
+    from boundid.sets.polytope import Polytope
+
+    P = Polytope(W, y, e)
+    b = P.bounds()
+    assert P._engine.n_highs <= 1
+    A_ub, b_ub = np.vstack([W, -W]), np.concatenate([y + e, e - y])
+    for j in range(p):
+        c = np.eye(p)[j]
+        lo = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * p, method="highs",
+                     options={"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}).fun
+        assert b.lo[j] == pytest.approx(lo, abs=1e-7 * (b.hi[j] - b.lo[j]))

@@ -136,14 +136,21 @@ def _jobs(requested: int | None, n_studies: int) -> int:
 _STUDY_MODULES = ("boundid.cli", "boundid.studies.runner", "boundid.report.study_page", "boundid.report.verdict")
 
 
+#: the fork server's environment: one BLAS/OpenMP thread, so that it starts no BLAS thread pool
+#: (threads do not survive a fork); each study runs with one BLAS thread anyway
+_ONE_THREAD_ENV = {name: "1" for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
+
+
 def _study_processes(jobs: int):
     """The multiprocessing context of the study processes, started early when ``jobs`` > 1.
 
     A fork server (POSIX), started now so that it imports the study modules while this process
     parses the study files (both about 4 s, on two cores at once); each study process is forked
-    from it with those modules loaded. The fork server is a fresh single-threaded process, so
-    forking it is safe. Elsewhere: spawned processes (each imports the modules itself)."""
-    from multiprocessing import get_all_start_methods, get_context
+    from it with those modules loaded. It runs with one BLAS thread (``_ONE_THREAD_ENV``), so it
+    holds no BLAS thread pool when it forks. Elsewhere: spawned processes (each imports the modules
+    itself). A study file that fails to parse still leaves the fork server's imports running; it
+    exits with this process."""
+    from multiprocessing import forkserver, get_all_start_methods, get_context
 
     if jobs <= 1:
         return None
@@ -151,9 +158,16 @@ def _study_processes(jobs: int):
         return get_context("spawn")
     ctx = get_context("forkserver")
     ctx.set_forkserver_preload(list(_STUDY_MODULES))
-    from multiprocessing import forkserver
-
-    forkserver.ensure_running()
+    saved = {name: os.environ.get(name) for name in _ONE_THREAD_ENV}
+    os.environ.update(_ONE_THREAD_ENV)
+    try:
+        forkserver.ensure_running()
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
     return ctx
 
 

@@ -13,17 +13,22 @@ that also satisfies every other row is the LP's optimum.
   row j minimising lam_j / u_j over u = N^-T n_i > 0, which keeps lam >= 0 ([Chvatal1983]
   ch. 10, in the vertex form of the bounded-variable simplex; [refs §LP]).
 
-Both ratio tests are Harris's two passes (the largest pivot among the nearly tied rows), and
-after 2 n steps that gain nothing the primal simplex leaves by Bland's rule (lowest row index)
-until a step gains again. Each step costs one pass over the rows (A e, or A x), O(m n), and a
-rank-one update of N^-1, O(n^2): about 20 us at m = 1,700, n = 22, where HiGHS's sparse simplex
-pays 0.24 ms a step on the same dense rows (measured on the UR5 study; same steps, same
-optima to 1e-11). N^-1 is refactored every ``_REFACTOR`` steps, and the answer is certified on a
-fresh N^-1: every row within ``ftol`` and lam >= -``dtol``, HiGHS's own tolerances.
+Both ratio tests are Harris's two passes (the largest pivot among the nearly tied rows); a
+primal edge that reaches the other side of its own leaving row first just moves the basis row to
+that side (a bound flip, no pivot). After 2 n primal steps that gain nothing, the leaving row is
+chosen by lowest index (Bland's leaving rule only: no anti-cycling guarantee; ``max_steps`` and a
+cap on primal/dual alternations bound every run). Each step costs one pass over the rows (A e,
+or A x), O(m n), and a rank-one update of N^-1, O(n^2): about 20 us at m = 1,700, n = 22, where
+HiGHS's sparse simplex pays 0.24 ms a step on the same dense rows (measured on the UR5 study;
+same steps, same optima to 1e-11). N^-1 is refactored every ``_REFACTOR`` steps, and the answer
+is certified on a fresh N^-1, x and lam each refined by one residual step: every row, basis
+rows included, within ``ftol`` of its bounds, lam >= -``dtol`` and |d - N^T lam| <= ``dtol``
+(HiGHS's own tolerances).
 
 Anything else returns a status, and the caller solves the same LP with HiGHS: a start that is
-neither primal nor dual feasible, an unbounded edge, an infeasible dual step, a singular basis,
-or no answer within ``max_steps``. This solver never reports an LP infeasible or unbounded.
+neither primal nor dual feasible (or whose basis rows have an infinite side), an unbounded edge,
+an infeasible dual step, a singular basis, or no answer within ``max_steps``. This solver never
+reports an LP infeasible or unbounded.
 """
 
 from __future__ import annotations
@@ -35,7 +40,8 @@ from numba import njit
 OPTIMAL, NO_START, UNBOUNDED, INFEASIBLE, STEP_LIMIT, SINGULAR = 0, 1, 2, 3, 4, 5
 #: steps between two refactorisations of N^-1
 _REFACTOR = 64
-#: smallest |pivot| a ratio test accepts (rows have unit norm in the callers' frames)
+#: smallest |pivot| a ratio test accepts (the callers' rows have norms about 1: unit strips, and
+#: [h, 1] for the Chebyshev centre's)
 _PIVOT = 1e-9
 
 
@@ -84,11 +90,14 @@ def _inverse(N):
 
 @njit(cache=True)
 def _worst_row(Ax, lo, up, isact):
-    """(row, side, violation) of the most violated non-basis row (violation <= 0: none)."""
+    """(row, side, violation) of the most violated non-basis row (violation <= 0: none; a NaN
+    activity counts as infinitely violated)."""
     worst, wi, ws = 0.0, -1, 0.0
     for i in range(Ax.size):
         if isact[i]:
             continue
+        if np.isnan(Ax[i]):
+            return i, 1.0, np.inf
         v = Ax[i] - up[i]
         if v > worst:
             worst, wi, ws = v, i, 1.0
@@ -96,6 +105,24 @@ def _worst_row(Ax, lo, up, isact):
         if v > worst:
             worst, wi, ws = v, i, -1.0
     return wi, ws, worst
+
+
+@njit(cache=True)
+def _certified(A, lo, up, d, N, Ninv, b, ftol, dtol):
+    """(x, lam, ok) at the basis (N, b) with a fresh N^-1: x = N^-1 b and lam = N^-T d each refined
+    by one residual step (an explicit inverse leaves cond(N) eps on the basis rows); ok when every
+    row, basis rows included, lies within ftol of its bounds, lam >= -dtol and |d - N^T lam| <= dtol."""
+    x = Ninv @ b
+    x += Ninv @ (b - N @ x)
+    lam = Ninv.T @ d
+    lam += Ninv.T @ (d - N.T @ lam)
+    if np.min(lam) < -dtol or np.max(np.abs(d - N.T @ lam)) > dtol:
+        return x, lam, False
+    Ax = A @ x
+    for i in range(Ax.size):
+        if not (Ax[i] <= up[i] + ftol and Ax[i] >= lo[i] - ftol):
+            return x, lam, False
+    return x, lam, True
 
 
 @njit(cache=True)
@@ -124,21 +151,29 @@ def vertex_simplex(A, lo, up, d, act, side, ftol, dtol, max_steps):
     isact = np.zeros(m, dtype=np.bool_)
     for j in range(n):
         isact[act[j]] = True
-    steps, stalled = 0, 0
+    steps, stalled, switches, was_primal = 0, 0, 0, True
     while True:
         N, b = _basis(A, lo, up, act, side)
+        if not np.all(np.isfinite(b)):          # a basis row on an infinite side: no vertex
+            return NO_START, b, b, steps
         Ninv, ok = _inverse(N)
         if not ok:
             return SINGULAR, b, b, steps
-        x = Ninv @ b
+        x, lam, ok = _certified(A, lo, up, d, N, Ninv, b, ftol, dtol)
+        if ok:
+            return OPTIMAL, x, lam, steps
         Ax = A @ x
-        lam = Ninv.T @ d
         primal = _worst_row(Ax, lo, up, isact)[2] <= ftol
         dual = np.min(lam) >= -dtol
-        if primal and dual:
-            return OPTIMAL, x, lam, steps
         if not primal and not dual:
             return NO_START, x, lam, steps
+        if primal and dual:                     # a basis row violated (its own bounds cross)
+            return NO_START, x, lam, steps
+        if steps > 0 and primal != was_primal:
+            switches += 1                       # rounding can bounce a near-singular basis between
+            if switches > 2 * n + 10:           # the two phases: give up, HiGHS decides
+                return STEP_LIMIT, x, lam, steps
+        was_primal = primal
         for _ in range(_REFACTOR):
             if steps >= max_steps:
                 return STEP_LIMIT, x, lam, steps
@@ -171,6 +206,18 @@ def vertex_simplex(A, lo, up, d, act, side, ftol, dtol, max_steps):
                         continue
                     if t < tmax:
                         tmax = t
+                kl = act[j]
+                width = up[kl] - lo[kl]             # the leaving row's own other side: a bound flip
+                if width <= tmax and np.isfinite(width):
+                    stalled = stalled + 1 if width * (-lam[j]) <= dtol else 0
+                    x += width * e
+                    Ax += width * alpha
+                    side[j] = -side[j]
+                    N[j] = -N[j]
+                    b[j] = up[kl] if side[j] > 0 else -lo[kl]
+                    for r in range(n):
+                        Ninv[r, j] = -Ninv[r, j]
+                    continue
                 if tmax == np.inf:
                     return UNBOUNDED, x, lam, steps
                 best, bi, bs, bt = 0.0, -1, 0.0, 0.0    # pass 2: the largest pivot within tmax

@@ -357,8 +357,8 @@ class WorkingSetLP:
                  max_rounds: int = 10_000):
         self.blocks = list(blocks)
         self.n_cols = len(col_lo)
-        self.col_lo = np.asarray(col_lo, dtype=float)
-        self.col_hi = np.asarray(col_hi, dtype=float)
+        self.col_lo = np.array(col_lo, dtype=float)
+        self.col_hi = np.array(col_hi, dtype=float)
         self.tol = tol
         self.batch = batch
         self.max_rounds = max_rounds
@@ -427,12 +427,12 @@ class WorkingSetLP:
             if not np.all(self.in_ws[b][ks]):
                 return
             here[n + other.row_of[b][ks]] = n + self.row_of[b][ks]
-        self._act, self._side = here[other._act], other._side.copy()
+        self._act, self._side, self._x = here[other._act], other._side.copy(), None
         self._bases = {k: (here[a], s.copy()) for k, (a, s) in other._bases.items()}
 
     def set_col_bounds(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Change the column bounds (+-inf allowed)."""
-        self.col_lo, self.col_hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+        self.col_lo, self.col_hi = np.array(lo, dtype=float), np.array(hi, dtype=float)
         self._lo[: self.n_cols], self._up[: self.n_cols] = self.col_lo, self.col_hi
         if self._h is not None:
             self._h.changeColsBounds(self.n_cols, np.arange(self.n_cols, dtype=np.int32),
@@ -506,7 +506,8 @@ class WorkingSetLP:
         if kept is not None or self._act is not None:
             starts.append(kept if kept is not None else (self._act, self._side))
         side = np.where(d >= 0, 1.0, -1.0)
-        if np.all(np.isfinite(np.where(side > 0, self.col_hi, self.col_lo))):
+        n = self.n_cols
+        if np.all(np.isfinite(np.where(side > 0, self._up[:n], self._lo[:n]))):
             starts.append((np.arange(self.n_cols), side))
         for act, side in starts:
             act, side = act.copy(), side.copy()
