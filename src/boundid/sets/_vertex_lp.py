@@ -167,7 +167,7 @@ def vertex_simplex(A, lo, up, d, act, side, ftol, dtol, max_steps):
         dual = np.min(lam) >= -dtol
         if not primal and not dual:
             return NO_START, x, lam, steps
-        if primal and dual:                     # a basis row violated (its own bounds cross)
+        if primal and dual:                     # a basis row off its bound (crossed bounds, or cond(N) too large)
             return NO_START, x, lam, steps
         if steps > 0 and primal != was_primal:
             switches += 1                       # rounding can bounce a near-singular basis between

@@ -42,7 +42,6 @@ from threadpoolctl import ThreadpoolController
 from boundid.errors import SolverError
 from boundid.sets._vertex_lp import OPTIMAL, vertex_simplex
 
-_INF = highspy.kHighsInf
 _STATUS = highspy.HighsModelStatus
 _AT_LOWER = highspy.HighsBasisStatus.kLower
 _AT_UPPER = highspy.HighsBasisStatus.kUpper
@@ -357,8 +356,6 @@ class WorkingSetLP:
                  max_rounds: int = 10_000):
         self.blocks = list(blocks)
         self.n_cols = len(col_lo)
-        self.col_lo = np.array(col_lo, dtype=float)
-        self.col_hi = np.array(col_hi, dtype=float)
         self.tol = tol
         self.batch = batch
         self.max_rounds = max_rounds
@@ -377,7 +374,7 @@ class WorkingSetLP:
         #: the LP in the dense form of :mod:`boundid.sets._vertex_lp`: the column bounds as unit
         #: rows 0 .. n_cols - 1, then working-set row r as row n_cols + r
         self._A = np.eye(self.n_cols)
-        self._lo, self._up = self.col_lo.copy(), self.col_hi.copy()
+        self._lo, self._up = np.array(col_lo, dtype=float), np.array(col_hi, dtype=float)
         #: the last optimal basis (rows of _A, sides) and its vertex; None before the first solve
         self._act: np.ndarray | None = None
         self._side: np.ndarray | None = None
@@ -430,14 +427,21 @@ class WorkingSetLP:
         self._act, self._side, self._x = here[other._act], other._side.copy(), None
         self._bases = {k: (here[a], s.copy()) for k, (a, s) in other._bases.items()}
 
+    @property
+    def col_lo(self) -> np.ndarray:
+        """Column lower bounds (n_cols,): the first rows of the dense form (a view)."""
+        return self._lo[: self.n_cols]
+
+    @property
+    def col_hi(self) -> np.ndarray:
+        """Column upper bounds (n_cols,): the first rows of the dense form (a view)."""
+        return self._up[: self.n_cols]
+
     def set_col_bounds(self, lo: np.ndarray, hi: np.ndarray) -> None:
-        """Change the column bounds (+-inf allowed)."""
-        self.col_lo, self.col_hi = np.array(lo, dtype=float), np.array(hi, dtype=float)
-        self._lo[: self.n_cols], self._up[: self.n_cols] = self.col_lo, self.col_hi
+        """Change the column bounds (+-inf allowed; HiGHS's infinity is IEEE inf)."""
+        self._lo[: self.n_cols], self._up[: self.n_cols] = lo, hi
         if self._h is not None:
-            self._h.changeColsBounds(self.n_cols, np.arange(self.n_cols, dtype=np.int32),
-                                     np.where(np.isfinite(self.col_lo), self.col_lo, -_INF),
-                                     np.where(np.isfinite(self.col_hi), self.col_hi, _INF))
+            self._h.changeColsBounds(self.n_cols, np.arange(self.n_cols, dtype=np.int32), self.col_lo, self.col_hi)
 
     def ws_rows(self, b: int) -> np.ndarray:
         """Pool indices of block ``b`` in the working set."""
@@ -450,7 +454,7 @@ class WorkingSetLP:
             r = self.row_of[b][k]
             self._lo[self.n_cols + r], self._up[self.n_cols + r] = lo, up
             if self._h is not None:
-                self._h.changeRowBounds(int(r), lo if np.isfinite(lo) else -_INF, up if np.isfinite(up) else _INF)
+                self._h.changeRowBounds(int(r), lo, up)
 
     # ------------------------------------------------------------------ passes over the pool
     def violators(self, X: np.ndarray, batch: int | None = None) -> list[list[tuple[int, np.ndarray]]]:
@@ -505,10 +509,9 @@ class WorkingSetLP:
         kept = self._bases.get(cost.tobytes()) if keep_basis else None
         if kept is not None or self._act is not None:
             starts.append(kept if kept is not None else (self._act, self._side))
-        side = np.where(d >= 0, 1.0, -1.0)
-        n = self.n_cols
-        if np.all(np.isfinite(np.where(side > 0, self._up[:n], self._lo[:n]))):
-            starts.append((np.arange(self.n_cols), side))
+        corner = np.where(d >= 0, 1.0, -1.0)
+        if np.all(np.isfinite(np.where(corner > 0, self.col_hi, self.col_lo))):
+            starts.append((np.arange(self.n_cols), corner))
         for act, side in starts:
             act, side = act.copy(), side.copy()
             status, x, _, _ = vertex_simplex(self._A, self._lo, self._up, d, act, side, _FTOL, _DTOL,
@@ -534,8 +537,7 @@ class WorkingSetLP:
                               ("primal_feasibility_tolerance", _FTOL), ("dual_feasibility_tolerance", _DTOL),
                               ("threads", 1)):
                 h.setOptionValue(name, val)
-            h.addVars(self.n_cols, np.where(np.isfinite(self.col_lo), self.col_lo, -_INF),
-                      np.where(np.isfinite(self.col_hi), self.col_hi, _INF))
+            h.addVars(self.n_cols, self.col_lo, self.col_hi)
             n = self.n_cols
             _highs_rows(h, self._A[n:], self._lo[n:], self._up[n:])
         h = self._h
@@ -674,11 +676,10 @@ def supports(lp, dirs: np.ndarray, below: np.ndarray | None = None,
 
 
 def _highs_rows(h: highspy.Highs, vals: np.ndarray, lo: np.ndarray, up: np.ndarray) -> None:
-    """Append dense rows lo <= vals x <= up (+-inf allowed) to the HiGHS model h."""
+    """Append dense rows lo <= vals x <= up to the HiGHS model h (+-inf allowed: highspy.kHighsInf is inf)."""
     m, n = vals.shape
     if m == 0:
         return
     idx = np.broadcast_to(np.arange(n, dtype=np.int32), (m, n)).ravel()
     starts = np.arange(m, dtype=np.int32) * n
-    h.addRows(m, np.where(np.isfinite(lo), lo, -_INF), np.where(np.isfinite(up), up, _INF), vals.size, starts, idx,
-              np.ascontiguousarray(vals, dtype=float).ravel())
+    h.addRows(m, lo, up, vals.size, starts, idx, np.ascontiguousarray(vals, dtype=float).ravel())
