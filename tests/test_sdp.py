@@ -207,12 +207,14 @@ def test_solver_failure_is_reported(monkeypatch):
     assert np.all(r.ellipsoid.contains(P.vertices()))
 
 
-@pytest.mark.parametrize("p,N,seed", [(2, 40, 0), (3, 60, 1), (3, 150, 5)])
-def test_outer_column_generation_equals_full_s_procedure(p, N, seed):
+@pytest.mark.parametrize("p,N,seed,drops", [(2, 40, 0, False), (3, 60, 1, False), (3, 150, 5, False),
+                                             (5, 400, 7, True)])
+def test_outer_column_generation_equals_full_s_procedure(p, N, seed, drops):
     """The column-generation outer ellipsoid equals the S-procedure solved in one piece on EVERY
     strip, each tightened to P's extent taken from the Qhull vertices (independent of the LPs),
     plus the LP box; it is never larger than the old reference (every non-redundant strip,
-    tightened) and uses far fewer strips in its SDP."""
+    tightened) and uses far fewer strips in its SDP. ``drops``: a case whose column generation
+    drops strips with zero multipliers from its working set on the way."""
     P = random_polytope(seed, p, N)
     out = sdp.outer_ellipsoid(P)
     origin, scale = P.box_frame()
@@ -231,6 +233,7 @@ def test_outer_column_generation_equals_full_s_procedure(p, N, seed):
     old = sdp.outer_ellipsoid(P, strips=P.nonredundant())
     assert out.ellipsoid.log_volume() <= old.ellipsoid.log_volume() + 1e-6
     assert len(out.strips) < N
+    assert (out.info["strips_dropped"] > 0) == drops
 
 
 @pytest.mark.parametrize("p,N,seed", [(2, 30, 0), (3, 60, 2), (4, 80, 3)])

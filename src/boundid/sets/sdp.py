@@ -308,6 +308,11 @@ def _reduced_costs(Zd, G, lo, hi):
     return second - mean**2 + (mean - lo) * (mean - hi), second - mean**2, mean
 
 
+#: a working-set strip whose S-procedure multiplier is below this fraction of the largest one
+#: counts as inactive (interior-point multipliers of inactive strips are ~1e-9 of the largest)
+_DROP_TOL = 1e-6
+
+
 def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, price_tol: float = 1e-6,
                     batch: int = 64, max_rounds: int = 30) -> SDPResult:
     """An ellipsoid guaranteed to contain P: the S-procedure on the strips of P each tightened to
@@ -320,7 +325,9 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
     every pool strip (:func:`_reduced_costs`). A strip whose exact extent is unknown is priced
     with the interval spanned by the points of P found so far, which can only overstate its
     reduced cost (the true extent is wider); the candidates are then tightened exactly by LP
-    (batched supports, which also add points) and priced again. It stops when no pool strip
+    (batched supports, which also add points) and priced again. A strip whose multiplier is zero
+    (below 1e-6 of the largest) leaves the working set and is priced with the pool from then on
+    (column dropping: the SDP's cost grows with its strips). It stops when no pool strip
     has a reduced cost above ``price_tol`` (in the box frame's squared units): the ellipsoid
     is then the S-procedure optimum over the whole tightened pool, found with a few dozen
     strips in the SDP instead of every non-redundant one. ``info["max_reduced_cost"]`` records
@@ -393,7 +400,7 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
     ws = list(act)
     in_ws = np.zeros(P.n_strips, dtype=bool)
     in_ws[act] = True
-    rounds, max_rc, solver, status = 0, np.inf, "", ""
+    rounds, max_rc, solver, status, dropped = 0, np.inf, "", "", 0
     while True:
         rounds += 1
         k = np.array(ws, dtype=int)
@@ -437,6 +444,13 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
             tighten(cand_pool[top])
         if added == 0:
             break
+        # column dropping before the next round: a strip whose multiplier is zero (to the solver's
+        # accuracy) leaves the working set; it stays in the pool, priced exactly, and comes back if
+        # it can help again (UR5 study: 434 strips, 130-170 with a multiplier; half the SDP's time)
+        keep = tau[len(fixed_lo):] > _DROP_TOL * tau.max()
+        in_ws[k[~keep]] = False
+        dropped += int(np.sum(~keep))
+        ws = list(k[keep]) + ws[len(k):]
     # certificate with the final multipliers, then every known point of P
     cz, Sz, mu = _certified(A0, b0, Gs, mid, half, tau, [], sig, float(np.max(np.sum(
         np.maximum(np.abs(zlo), np.abs(zhi)) ** 2))), "outer_ellipsoid")
@@ -449,7 +463,7 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
     used = np.array(ws, dtype=int)
     res = SDPResult(ell, status, time.perf_counter() - t0, np.sort(used), solver,
                     {"certificate_residual": mu, "n_constraints": len(mid), "vertices_checked": len(V),
-                     "rounds": rounds, "strips_tightened": int(np.sum(~np.isnan(exact_lo))),
+                     "rounds": rounds, "strips_dropped": dropped, "strips_tightened": int(np.sum(~np.isnan(exact_lo))),
                      "support_lps": n_lp, "max_reduced_cost": max_rc, "price_tol": price_tol,
                      "pool": int(pool.size)})
     P._sdp_cache[key] = res
