@@ -23,6 +23,7 @@ import pytest
 from boundid.errors import StudyError
 from boundid.experiments.measurement import TorqueNoise
 from boundid.report.campaign_page import write_campaign_page
+from boundid.studies import campaign
 from boundid.studies.campaign import (
     campaign_config,
     config_hash,
@@ -256,9 +257,23 @@ def test_measured_study_is_refused(cfg):
         run_campaign(measured, 1, (BOUNDED,), "unused", workers=0)
 
 
-def test_local_cluster_matches_in_process(tmp_path, cfg):
-    """A real dask.distributed LocalCluster (1 worker process) writes the same numbers as the
-    in-process run of the same replicates."""
+def test_task_chunks_amortise_and_balance():
+    """Consecutive replicates per task: all of them once, in order; about TASKS_PER_WORKER tasks per
+    worker, at most MAX_PER_TASK replicates in one, and one replicate per task when there are few."""
+    todo = [("s", r) for r in range(60)]
+    for workers, size in [(1, 7), (2, 3), (4, 1), (100, 1)]:
+        chunks = campaign.task_chunks(todo, workers)
+        assert [t for c in chunks for t in c] == todo
+        assert max(len(c) for c in chunks) == size
+    assert max(len(c) for c in campaign.task_chunks(todo * 10, 1)) == campaign.MAX_PER_TASK
+    assert campaign.task_chunks([], 2) == []
+
+
+def test_local_cluster_matches_in_process(tmp_path, cfg, monkeypatch):
+    """A real dask.distributed LocalCluster (1 worker process, both replicates in one task) writes
+    the same numbers as the in-process run of the same replicates."""
+    monkeypatch.setattr(campaign, "TASKS_PER_WORKER", 1)
+    assert campaign.task_chunks([0, 1], 1) == [[0, 1]]
     ref = run_campaign(cfg, 2, (GAUSS,), tmp_path / "serial", workers=0).table
     res = run_campaign(cfg, 2, (GAUSS,), tmp_path / "dask", workers=1)
     assert res.workers == 1 and sorted(res.computed) == [("gauss", 0), ("gauss", 1)]

@@ -392,19 +392,40 @@ def connect(cfg: StudyConfig, scheduler: str | None = None, workers: int = 1):
     return client, cluster
 
 
+def run_replicates(cfg: StudyConfig, tasks: list[tuple[Scenario, int]], data_dir: str | Path) -> list[str]:
+    """:func:`run_replicate` for each (scenario, replicate) of ``tasks``, in order (one Dask task
+    of several replicates; each one's file is in place as soon as it is done)."""
+    return [run_replicate(cfg, sc, r, data_dir) for sc, r in tasks]
+
+
+#: replicates per Dask task: about this many tasks per worker (the last ones to finish keep the
+#: workers' loads even), at most MAX_PER_TASK replicates each (a lost worker re-runs at most that many)
+TASKS_PER_WORKER, MAX_PER_TASK = 8, 8
+
+
+def task_chunks(todo: list, workers: int) -> list[list]:
+    """``todo`` cut into consecutive tasks for ``workers`` workers: a task carries several
+    replicates, so that the scheduler's cost per task (a few ms, reports/benchmarks/campaign.md)
+    is paid once for all of them, and there are still about TASKS_PER_WORKER tasks per worker."""
+    size = max(1, min(MAX_PER_TASK, len(todo) // (TASKS_PER_WORKER * max(1, workers))))
+    return [todo[i:i + size] for i in range(0, len(todo), size)]
+
+
 def _run_dask(cfg, todo, data_dir: Path, workers: int, scheduler: str | None, computed: list) -> int:
     from dask.distributed import as_completed
 
     client, cluster = connect(cfg, scheduler, workers)
     try:
+        slots = sum(client.nthreads().values()) or workers
         # cfg goes with each task (a few kB), not scattered: scattered data dies with its worker,
         # and the tasks that need it would then be cancelled instead of re-run elsewhere
-        futures = {client.submit(run_replicate, cfg, sc, r, str(data_dir.resolve()),
-                                 key=f"campaign-{cfg.name}-{sc.name}-{r}", pure=False): (sc.name, r)
-                   for sc, r in todo}
+        futures = {client.submit(run_replicates, cfg, chunk, str(data_dir.resolve()),
+                                 key=f"campaign-{cfg.name}-{chunk[0][0].name}-{chunk[0][1]}-{len(chunk)}",
+                                 pure=False): chunk
+                   for chunk in task_chunks(todo, slots)}
         for fut in as_completed(futures):
             fut.result()  # re-raises a replicate's error here
-            computed.append(futures[fut])
+            computed.extend((sc.name, r) for sc, r in futures[fut])
         return len(client.scheduler_info(n_workers=-1)["workers"])
     finally:
         client.close()
