@@ -273,3 +273,15 @@ def test_bad_inputs_raise_input_error(robot):
         robot.regressor(np.zeros((2, 4)), np.zeros((3, 4)), np.zeros((2, 4)))
     assert np.isnan(robot.theta_prior[6:]).all() and robot.theta_prior[4] == 1.0
     assert len(robot.param_names) == 14 and robot.param_names[10] == "Fs1"
+
+
+def test_kernel_small_solve_against_lapack():
+    """The kernels' 4 x 4 solve (LU with partial pivoting, compiled) against numpy's LAPACK solve,
+    on random matrices and on one that needs a row exchange at every step (zero leading pivots)."""
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        A, b = rng.normal(size=(4, 4)), rng.normal(size=4)
+        np.testing.assert_allclose(kern._solve(A, b), np.linalg.solve(A, b), rtol=1e-10, atol=1e-12)
+    A = np.array([[0.0, 2, 1, 0], [1, 0, 0, 3], [0, 0, 0, 1], [0, 0, 5, 0]])
+    b = np.arange(1.0, 5.0)
+    np.testing.assert_allclose(kern._solve(A, b), np.linalg.solve(A, b), rtol=1e-14)
