@@ -2,8 +2,9 @@
 
 The closed-loop simulation evaluates the dynamics 4 x (sub-steps) times per 1 ms sample, one
 state at a time, where batched numpy costs milliseconds per call. These kernels repeat the
-formulas of :mod:`boundid.models.h4_kinematics` (numpy, batched, the reference) in scalar form;
-tests/test_h4_model.py checks them against it.
+formulas of :mod:`boundid.models.h4_kinematics` (numpy, batched, the reference for the chains,
+Jacobians and IK) in scalar form; tests/test_h4_model.py checks them against it, and the forward
+model (used by h4_kinematics too) against the poses it came from and finite differences.
 
 Argument packs: geo = (P (4,3), V (4,3), W (4,3), side (4,), updown (4,), dims = [L, l, d, h]);
 theta (14,) = [Imot1..4, Mnac, Ibc, Fv1..4, Fs1..4] (for the simulated truth: rotor inertias and

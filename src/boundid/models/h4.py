@@ -177,7 +177,7 @@ class H4Robot(H4Kinematics, RobotModel):
     def kinematic_state(self, q, qd, x0=None):
         """(x, J, xd, Jdot) at joint states (q, qd): poses (N,4), J (N,4,4), xd = J qd (N,4), Jdot (N,4,4)."""
         (q, qd), _ = self._states(q, qd, names=("q", "qd"))
-        ck = self.chains(self.pose(q, x0), q)
+        ck = self.chains(self._converged_fk(q, x0, self.fk_tol, self.fk_max_iter), q)  # raises near singularities
         xd = np.einsum("nij,nj->ni", ck.J, qd)
         return ck.x, ck.J, xd, self._jdot(ck, qd)
 
@@ -367,10 +367,7 @@ class H4Robot(H4Kinematics, RobotModel):
         lo, hi = np.asarray(geo.workspace_low), np.asarray(geo.workspace_high)
         pad = margin * (hi - lo)
         q = np.asarray(q, float)
-        # the compiled Newton model (the batched numpy one, _fk, costs 15 us a pose: this check runs
-        # 31 times per segment in fit_to_workspace's bisection)
-        x, ok = kern.fk_batch(np.ascontiguousarray(q), np.tile(np.asarray(geo.home, float), (len(q), 1)),
-                              *self._geo, 1e-10, 30)
+        x, ok = self._fk(q, np.tile(np.asarray(geo.home, float), (len(q), 1)), 1e-10, 30)
         x = x[ok]
         out = np.maximum(x - (hi - pad), 0.0) + np.maximum((lo + pad) - x, 0.0)
         return float(np.sum((out / (hi - lo)) ** 2) + np.sum(~ok))

@@ -26,6 +26,7 @@ import numpy as np
 
 from boundid._validation import as_float_array
 from boundid.errors import InputError, UnreachablePoseError
+from boundid.models import _h4_kernels
 
 _AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0), "-y": (0.0, -1.0, 0.0)}
 
@@ -272,33 +273,14 @@ class H4Kinematics:
 
     # -- forward model --------------------------------------------------------------------
     def _fk(self, q: np.ndarray, x0: np.ndarray, tol: float, max_iter: int):
-        """Newton iteration of eq. (10); returns x and the converged mask (no raising).
-
-        An iterate outside the reachable set (some chain too short) goes back half its last step.
-        """
-        x, step = x0.copy(), np.zeros_like(x0)
-        ok, active = np.zeros(len(q), bool), np.ones(len(q), bool)
-        for _ in range(max_iter):
-            idx = np.flatnonzero(active)
-            qn, ratio = self._ik(x[idx])
-            reach = np.all(np.abs(ratio) <= 1.0, axis=1)
-            back = idx[~reach]
-            step[back] *= 0.5
-            x[back] -= step[back]
-            idx, qn = idx[reach], qn[reach]
-            r = q[idx] - qn
-            done = np.max(np.abs(r), axis=1) <= tol
-            ok[idx[done]] = True
-            active[idx[done]] = False
-            idx, qn, r = idx[~done], qn[~done], r[~done]
-            if len(idx):
-                J = self.chains(x[idx], qn, check=False).J
-                step[idx] = np.einsum("nij,nj->ni", J, r)
-                x[idx] += step[idx]
-            active &= np.all(np.isfinite(x), axis=1)
-            if not active.any():
-                break
-        return x, ok
+        """Newton iteration of eq. (10), x_{k+1} = x_k + J(x_k) (q - IK(x_k)), for each sample from
+        its x0; returns x and the converged mask (no raising). An iterate outside the reachable set
+        (some chain too short) goes back half its last step. Compiled, one sample at a time
+        (:func:`boundid.models._h4_kernels.fk_batch`: 5 us a pose against 30 us batched in numpy)."""
+        g = self.geometry
+        return _h4_kernels.fk_batch(np.ascontiguousarray(q), np.ascontiguousarray(x0), g.P, g.V, g.W,
+                                    np.asarray(g.side, float), np.asarray(g.updown, float),
+                                    np.array([g.L, g.l, g.d, g.h]), tol, max_iter)
 
     def forward_kinematics(self, q, x0=None, tol: float = 1e-12, max_iter: int = 30) -> np.ndarray:
         """Pose x (N, 4) reached with motor angles q (N, 4), by the Newton iteration of eq. (10).
@@ -310,8 +292,14 @@ class H4Kinematics:
         q, single = self._batch(q, "q")
         if not (tol > 0 and int(max_iter) >= 1):
             raise InputError(f"tol must be > 0 rad and max_iter >= 1, got {tol}, {max_iter}.")
-        x0 = np.broadcast_to(np.asarray(self.geometry.home if x0 is None else x0, float), q.shape).copy()
-        x, ok = self._fk(q, x0, tol, int(max_iter))
+        x = self._converged_fk(q, x0, tol, int(max_iter))
+        self._check_singular(x, self.chains(x, q, check=False).J)
+        return x[0] if single else x
+
+    def _converged_fk(self, q: np.ndarray, x0, tol: float, max_iter: int) -> np.ndarray:
+        """x (N, 4) by :meth:`_fk` from x0 (default home); UnreachablePoseError where it does not converge."""
+        x0 = np.broadcast_to(np.asarray(self.geometry.home if x0 is None else x0, float), q.shape)
+        x, ok = self._fk(q, x0, tol, max_iter)
         if not ok.all():
             n = int(np.argmin(ok))
             raise UnreachablePoseError(
@@ -319,8 +307,7 @@ class H4Kinematics:
                 f"(sample {n}; {int((~ok).sum())} of {len(q)} samples) within {max_iter} Newton iterations "
                 f"to {tol:g} rad: the motor angles are outside the reachable set or near a singularity."
             )
-        self._check_singular(x, self.chains(x, check=False).J)
-        return x[0] if single else x
+        return x
 
     def in_workspace(self, x) -> np.ndarray:
         """Boolean (N,): pose inside the workspace box of the geometry."""
