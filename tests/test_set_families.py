@@ -184,12 +184,36 @@ def test_shadow_of_an_lp_polytope_matches_its_vertices():
     y = W @ rng.normal(size=p) + rng.uniform(-1, 1, N)
     P = Polytope(W, y, 1.0)
     V = P.vertices()
+
+    class LPOnly:
+        """P with its support_point oracle only: one LP per query, no basis cones."""
+        dim, n_lps = P.dim, 0
+
+        def support_point(self, d):
+            LPOnly.n_lps += 1
+            return P.support_point(d)
+
+    calls = {"cone": 0}
+    real_cone = P.support_cone
+
+    def counted(d):
+        calls["cone"] += 1
+        return real_cone(d)
+
+    P.support_cone = counted
+    with_cones = 0
     for i, j in [(0, 1), (2, 3), (3, 1)]:
+        before = calls["cone"]
         sh = shadow(P, i, j)
+        with_cones += calls["cone"] - before
         ref = VertexPolytope(V).project(i, j)
         assert sh.log_volume() == pytest.approx(ref.log_volume(), rel=1e-8)
         assert len(sh.vertices) == len(ref.vertices)
         assert np.all(ref.contains(sh.vertices)) and np.all(sh.contains(ref.vertices))
+        # the same polygon from the LP-only oracle, with more LPs: the basis cones certify edges
+        plain = shadow(LPOnly(), i, j)
+        np.testing.assert_allclose(plain.vertices, sh.vertices, atol=1e-9)
+    assert with_cones < 0.75 * LPOnly.n_lps
 
 
 def test_parallelotope_strip_form_and_box():

@@ -711,12 +711,21 @@ class Polytope:
 
     def support_point(self, direction) -> tuple[float, np.ndarray]:
         """(max over P of d^T theta, a maximising vertex) (one LP); for projections of P."""
+        return self.support_cone(direction)[:2]
+
+    def support_cone(self, direction) -> tuple[float, np.ndarray, np.ndarray | None]:
+        """:meth:`support_point` and the outward normals N (p, p) (theta space) of the constraints
+        of P active in the LP's optimal basis: the vertex maximises every d = N^T lam with lam >= 0
+        too (KKT), so a caller may answer such directions without an LP. N is None when the answer
+        has no basis of p constraints."""
         d = self._direction(direction)
         u, off, nrm = self._cost_z(d)
         z = self._minimize_many(-u[None, :])[0]
-        x = self._frame.to_theta(z)
+        F = self._frame
+        x = F.to_theta(z)
         self._found.append(x)
-        return off + nrm * float(u @ z), x
+        found = self._engine.active_normals(z)
+        return off + nrm * float(u @ z), x, None if found is None else found[0] / F.scale[None, :]
 
     def support_points(self, directions) -> tuple[np.ndarray, np.ndarray]:
         """(max over P of d^T theta, a maximising vertex) for each row d of ``directions`` (m, p):

@@ -8,6 +8,8 @@ H-polytope known only through an LP support oracle (``support_point``, e.g.
 
 from __future__ import annotations
 
+from collections import deque
+
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
@@ -112,6 +114,20 @@ class VertexPolytope:
         return f"VertexPolytope(dim={self.dim}, vertices={len(self.vertices)}, facets={len(self.b)})"
 
 
+#: the shadow checks a direction against the normal cones of this many latest LP answers
+_CONES = 8
+#: d is in a basis's normal cone when its multipliers are >= -_CONE_TOL max |multiplier|
+_CONE_TOL = 1e-10
+
+
+def _cone_multipliers(N: np.ndarray, d: np.ndarray) -> np.ndarray | None:
+    """lam with N^T lam = d (None if N is singular)."""
+    try:
+        return np.linalg.solve(N.T, d)
+    except np.linalg.LinAlgError:
+        return None
+
+
 def shadow(polytope, i: int, j: int, rtol: float = 1e-9, max_lps: int = 10_000) -> VertexPolytope:
     """The exact shadow of a polytope on the plane of coordinates (i, j), as a polygon.
 
@@ -121,19 +137,33 @@ def shadow(polytope, i: int, j: int, rtol: float = 1e-9, max_lps: int = 10_000) 
     support point q along its outward normal n; if n^T q exceeds n^T a (by more than rtol times
     the shadow's size) q is a new vertex between a and b, else (a, b) is an edge of the shadow.
     Every edge of the result is certified by one LP, so the polygon is exact (to LP accuracy);
-    the cost is about two LPs per edge.
+    the cost is about two LPs per edge. With ``support_cone(d) -> (value, x, N)`` (the outward
+    normals N of the optimal basis at x, :meth:`boundid.sets.Polytope.support_cone`), a direction
+    in the normal cone of an earlier answer's basis (d = N^T lam, lam >= 0) is answered by that
+    vertex without an LP: most edges are certified so.
     """
     idx = plane(i, j, polytope.dim)
     n_lps = 0
+    cones: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=_CONES)  # (vertex, outward normals of its basis)
+    with_cone = getattr(polytope, "support_cone", None)
 
     def point(d2: np.ndarray) -> np.ndarray:
         nonlocal n_lps
+        d = np.zeros(polytope.dim)
+        d[idx] = d2
+        for x, N in reversed(cones):
+            lam = _cone_multipliers(N, d)
+            if lam is not None and np.all(lam >= -_CONE_TOL * np.max(np.abs(lam))):
+                return x[idx]
         n_lps += 1
         if n_lps > max_lps:
             raise SolverError(f"shadow: no closed polygon after {max_lps} LPs (inaccurate support points?).")
-        d = np.zeros(polytope.dim)
-        d[idx] = d2
-        return np.asarray(polytope.support_point(d)[1], dtype=float)[idx]
+        if with_cone is None:
+            return np.asarray(polytope.support_point(d)[1], dtype=float)[idx]
+        _, x, N = with_cone(d)
+        if N is not None:
+            cones.append((np.asarray(x, dtype=float), N))
+        return np.asarray(x, dtype=float)[idx]
 
     ring = [point(np.array(d, float)) for d in ((1, 0), (0, 1), (-1, 0), (0, -1))]
     scale = max(np.ptp(np.array(ring), axis=0).max(), np.finfo(float).tiny)
