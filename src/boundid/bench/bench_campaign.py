@@ -29,12 +29,13 @@ but the limited-complexity polytope (the `[campaign] estimators` option of the s
 family that costs half of a replicate (an LP per block of 900 strips).
 
 - Cases: in this process (no cluster), and a dask.distributed LocalCluster of 1 and 2 worker
-  processes (1 thread each; `boundid.studies.campaign.connect`, as `boundid campaign` starts it).
-  Each case runs the same replicates into a fresh folder. The cases run in turn, `rounds` times
-  (in-process, 1 worker, 2 workers, in-process without the limited polytope, in-process, ...), and
-  each row keeps its best round of 3: the 2 cores are shared with other jobs (two runs of 2
-  rounds put the 1-worker ratio at 0.71 and 0.89), and the ratios are taken between cases
-  measured side by side.
+  processes (1 thread each; `boundid.studies.campaign.connect`, as `boundid campaign` starts it;
+  a task carries several consecutive replicates, `boundid.studies.campaign.task_chunks`: 7 per
+  task with 1 worker, 3 with 2). Each case runs the same replicates into a fresh folder. The cases
+  run in turn, `rounds` times (in-process, 1 worker, 2 workers, in-process without the limited
+  polytope, in-process, ...), and each row keeps its best round of 5: the 2 cores are shared with
+  other jobs (the same replicates took 0.14-0.22 s each from one round to the next, in process and
+  in a worker alike), and the ratios are taken between cases measured side by side.
 - `replicates_per_min`: replicates / wall time of `run_campaign` on a running, warmed cluster
   (submit, compute, write the Parquet files, read them back); `startup_s`: starting the cluster and
   warming its workers (imports, numba kernels from their disk cache), paid once per campaign and
@@ -136,7 +137,7 @@ def run(quick: bool = False) -> pd.DataFrame:
     cfg = load_study(STUDY)
     duration = 2.0 if quick else 5.0
     cfg = replace(cfg, experiment=replace(cfg.experiment, duration_s=duration))
-    replicates, rounds = (8, 1) if quick else (60, 3)
+    replicates, rounds = (8, 1) if quick else (60, 5)
     subset = tuple(ec.label for ec in cfg.estimators if ec.label not in LEFT_OUT)
     # warm the numba caches in this process so the in-process case does not pay loading them
     with tempfile.TemporaryDirectory() as tmp:
