@@ -67,14 +67,19 @@ def test_volume_chain_and_containment(p, N, seed):
     np.testing.assert_allclose(john.ellipsoid.shape, p**2 * inner.ellipsoid.shape * john.info["vertex_repair"])
 
 
-@pytest.mark.parametrize("seed,p,N,min_rounds", [(4, 3, 120, 1), (2, 2, 50, 2)])
-def test_inner_constraint_generation_equals_full_sdp(seed, p, N, min_rounds):
+@pytest.mark.parametrize("seed,p,N,min_rounds,drop", [(4, 3, 120, 1, False), (2, 2, 50, 2, False),
+                                                      (2, 2, 50, 2, True)])
+def test_inner_constraint_generation_equals_full_sdp(seed, p, N, min_rounds, drop, monkeypatch):
     """The constraint-generation inner ellipsoid (triangular factor, box frame) equals a direct
     cvxpy solve with every strip in the other formulation, log det of the symmetric square root
     (second algorithm, unscaled but well conditioned here); the second case needs a second
-    round of constraint generation (the seed sides alone are not enough)."""
+    round of constraint generation (the seed sides alone are not enough); the third is the
+    second with every side that has any slack dropped from the working set after a round."""
+    if drop:
+        monkeypatch.setattr(sdp, "_INNER_DROP", 0.0)
     P = random_polytope(seed, p, N)
     r = sdp.inner_ellipsoid(P)
+    assert (r.info["sides_dropped"] > 0) == drop
     B, x0 = cp.Variable((p, p), PSD=True), cp.Variable(p)
     Wn, c = P.W / P.e_max[:, None], P.y / P.e_max
     cons = [cp.norm(Wn @ B, 2, axis=1) + cp.abs(Wn @ x0 - c) <= 1]

@@ -155,6 +155,11 @@ def _inscribed(Gw: np.ndarray, hw: np.ndarray, triangular: bool, allow_fallback:
     return outcome, Mv, x0.value
 
 
+#: the inscribed ellipsoid's working set drops a side whose slack at the last solution exceeds this
+#: (relative to 1 + |h|, as its violations)
+_INNER_DROP = 1e-2
+
+
 def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) -> SDPResult:
     """Maximum-volume ellipsoid inscribed in P (exact, convex; [refs §SDP]).
 
@@ -167,10 +172,11 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     random polytopes with halfspace priors), the same working set is solved in that log-det form
     (``info["formulation"]`` says which answered). Solved in the box
     frame of P by constraint generation over the sides (a working set seeded with the sides
-    active at the LP-bound vertices; the most violated sides added after each solve) so N = 1e5
-    rows work. The answer is shrunk about x0 so that it lies inside P exactly (the solver may
-    leave it ~1e-9 outside). ``strips`` of the result: the strips whose sides were in the final
-    working set. The result is cached on P (john_outer reuses it).
+    active at the LP-bound vertices; the most violated sides added after each solve, the sides
+    with a slack above 1 % dropped, each at most once) so N = 1e5 rows work. The answer is
+    shrunk about x0 so that it lies inside P exactly (the solver may leave it ~1e-9 outside).
+    ``strips`` of the result: the strips whose sides were in the final working set. The result
+    is cached on P (john_outer reuses it).
     """
     key = ("inner", allow_fallback, batch)
     if key in P._sdp_cache:
@@ -187,6 +193,7 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     Gb, hbox = np.vstack([np.eye(n), -np.eye(n)]), np.concatenate([zhi, -zlo])
     ws = np.zeros(len(h), dtype=bool)
     ws[act] = True
+    left = np.zeros(len(h), dtype=bool)  # sides dropped from the working set once
     rounds, solver, status = 0, "", ""
     triangular = True
     while True:
@@ -205,6 +212,12 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
             break
         if new.size > batch:
             new = new[np.argsort(viol[new])[-batch:]]
+        # sides well clear of this ellipsoid (slack above _INNER_DROP) leave the working set, once
+        # each (so the rounds end): the next ellipsoid differs little, and a side it violates comes
+        # back (UR5 study: the second round on 210 sides instead of 466, a third of the time)
+        drop = ws & (viol < -_INNER_DROP) & ~left
+        ws &= ~drop
+        left |= drop
         ws[new] = True
     # exact containment: shrink L about x0 until every side holds (x0 must be interior)
     Ga, ha = np.vstack([G, Gb]), np.concatenate([h, hbox])
@@ -220,7 +233,7 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     ell = Ellipsoid(origin + scale * xv, (scale[:, None] * (Lv @ Lv.T)) * scale[None, :])
     strips = np.unique(owner[ws][owner[ws] >= 0])
     res = SDPResult(ell, status, time.perf_counter() - t0, strips, solver,
-                    {"rounds": rounds, "working_sides": int(ws.sum()), "shrink": s,
+                    {"rounds": rounds, "working_sides": int(ws.sum()), "sides_dropped": int(left.sum()), "shrink": s,
                      "formulation": "triangular factor" if triangular else
                      "symmetric root (Clarabel failed on the triangular factor)"})
     P._sdp_cache[key] = res
