@@ -30,7 +30,7 @@ def _wolfe_atwood(Q, u, tol, max_iter):
     L = np.zeros((d, d))
     for i in range(m):
         L += u[i] * np.outer(Q[i], Q[i])
-    Linv = np.linalg.inv(L)
+    Linv = np.ascontiguousarray(np.linalg.inv(L))  # updated in place below: one array layout
     omega = np.empty(m)
     for i in range(m):
         omega[i] = Q[i] @ Linv @ Q[i]
@@ -50,7 +50,7 @@ def _wolfe_atwood(Q, u, tol, max_iter):
         Lq = Linv @ Q[i]
         v = Q @ Lq
         den = (1.0 - lam) + lam * omega[i]
-        Linv = (Linv - (lam / den) * np.outer(Lq, Lq)) / (1.0 - lam)
+        Linv[:] = (Linv - (lam / den) * np.outer(Lq, Lq)) / (1.0 - lam)
         omega = (omega - (lam / den) * v * v) / (1.0 - lam)
         u *= 1.0 - lam
         u[i] += lam
@@ -63,7 +63,7 @@ def _wolfe_atwood(Q, u, tol, max_iter):
             for t in range(m):
                 if u[t] > 0:
                     L += u[t] * np.outer(Q[t], Q[t])
-            Linv = np.linalg.inv(L)
+            Linv[:] = np.linalg.inv(L)
             for t in range(m):
                 omega[t] = Q[t] @ Linv @ Q[t]
     return max_iter
