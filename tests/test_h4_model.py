@@ -277,7 +277,8 @@ def test_bad_inputs_raise_input_error(robot):
 
 def test_kernel_small_solve_against_lapack():
     """The kernels' 4 x 4 solve (LU with partial pivoting, compiled) against numpy's LAPACK solve,
-    on random matrices and on one that needs a row exchange at every step (zero leading pivots)."""
+    on random matrices and on one that needs a row exchange at every step (zero leading pivots);
+    a singular matrix raises LinAlgError, as numpy's solve does."""
     rng = np.random.default_rng(3)
     for _ in range(50):
         A, b = rng.normal(size=(4, 4)), rng.normal(size=4)
@@ -285,3 +286,5 @@ def test_kernel_small_solve_against_lapack():
     A = np.array([[0.0, 2, 1, 0], [1, 0, 0, 3], [0, 0, 0, 1], [0, 0, 5, 0]])
     b = np.arange(1.0, 5.0)
     np.testing.assert_allclose(kern._solve(A, b), np.linalg.solve(A, b), rtol=1e-14)
+    with pytest.raises(np.linalg.LinAlgError, match="singular"):   # as numpy's solve raises
+        kern._solve(np.diag([1.0, 2.0, 0.0, 3.0]), b)

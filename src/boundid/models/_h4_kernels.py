@@ -38,6 +38,9 @@ def _lu(A):
         for i in range(k + 1, n):
             if abs(LU[i, k]) > abs(LU[p, k]):
                 p = i
+        if LU[p, k] == 0.0:
+            raise np.linalg.LinAlgError("H4 kernels: singular 4 x 4 system (a pose at a singularity of the "
+                                        "mechanism); keep the motion inside the workspace box.")
         if p != k:
             for j in range(n):
                 LU[k, j], LU[p, j] = LU[p, j], LU[k, j]
