@@ -99,32 +99,25 @@ def _ik1(x, P, V, W, side, updown, dims, q):
 @njit(cache=True)
 def _chains1(x, q, P, V, W, side, updown, dims):
     """A-B (4,3), dB (4,3), d2B (4,3), de (3,) = d(cos th, sin th, 0)/dth, Jx (4,4), jq (4,)."""
-    L, d, h = dims[0], dims[2], dims[3]
-    c, s = np.cos(x[3]), np.sin(x[3])
-    AB = np.empty((4, 3))
-    dB = np.empty((4, 3))
-    d2B = np.empty((4, 3))
+    L = dims[0]
     Jx = np.empty((4, 4))
     jq = np.empty(4)
-    de = np.array([-s, c, 0.0])
+    _newton_matrices(x, q, P, V, W, side, updown, dims, Jx, jq)
+    dB = np.empty((4, 3))
+    d2B = np.empty((4, 3))
     for i in range(4):
         cq, sq = np.cos(q[i]), np.sin(q[i])
         for j in range(3):
-            # A_j: attachment point of chain i on the nacelle
-            A = x[0] + side[i] * d * c if j == 0 else (x[1] + side[i] * d * s + updown[i] * h if j == 1 else x[2])
-            B = P[i, j] + L * (cq * V[i, j] + sq * W[i, j])
-            AB[i, j] = A - B
             dB[i, j] = L * (-sq * V[i, j] + cq * W[i, j])
             d2B[i, j] = -L * (cq * V[i, j] + sq * W[i, j])
-        Jx[i, 0], Jx[i, 1], Jx[i, 2] = AB[i, 0], AB[i, 1], AB[i, 2]
-        Jx[i, 3] = side[i] * d * (AB[i, 0] * de[0] + AB[i, 1] * de[1])
-        jq[i] = AB[i, 0] * dB[i, 0] + AB[i, 1] * dB[i, 1] + AB[i, 2] * dB[i, 2]
-    return AB, dB, d2B, de, Jx, jq
+    return Jx[:, :3].copy(), dB, d2B, np.array([-np.sin(x[3]), np.cos(x[3]), 0.0]), Jx, jq
 
 
 @njit(cache=True)
 def _newton_matrices(x, q, P, V, W, side, updown, dims, Jx, jq):
-    """Jx (4,4) and jq (4,) of :func:`_chains1` only, written into the given arrays (the Newton loop's)."""
+    """Jx (4,4) and jq (4,) of the chains at pose x and motor angles q, written into the given arrays
+    (the Newton loop's): Jx[i] = (A_i - B_i)^T dA_i/dx and jq_i = (A_i - B_i)^T dB_i/dq_i, A_i the
+    attachment point on the nacelle and B_i the elbow of chain i (so Jx[i, :3] = A_i - B_i)."""
     L, d, h = dims[0], dims[2], dims[3]
     c, s = np.cos(x[3]), np.sin(x[3])
     for i in range(4):

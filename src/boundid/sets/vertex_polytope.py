@@ -158,12 +158,11 @@ def shadow(polytope, i: int, j: int, rtol: float = 1e-9, max_lps: int = 10_000) 
         n_lps += 1
         if n_lps > max_lps:
             raise SolverError(f"shadow: no closed polygon after {max_lps} LPs (inaccurate support points?).")
-        if with_cone is None:
-            return np.asarray(polytope.support_point(d)[1], dtype=float)[idx]
-        _, x, N = with_cone(d)
+        _, x, N = with_cone(d) if with_cone is not None else (*polytope.support_point(d), None)
+        x = np.asarray(x, dtype=float)
         if N is not None:
-            cones.append((np.asarray(x, dtype=float), N))
-        return np.asarray(x, dtype=float)[idx]
+            cones.append((x, N))
+        return x[idx]
 
     ring = [point(np.array(d, float)) for d in ((1, 0), (0, 1), (-1, 0), (0, -1))]
     scale = max(np.ptp(np.array(ring), axis=0).max(), np.finfo(float).tiny)
