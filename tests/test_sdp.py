@@ -241,6 +241,47 @@ def test_outer_column_generation_equals_full_s_procedure(p, N, seed, drops):
     assert (out.info["strips_dropped"] > 0) == drops
 
 
+def _textbook_s_procedure(Gs, mid, half, extra):
+    """ln det A0 of the S-procedure in its textbook form ([Boyd1994] §3.7.2): variables (A0, b0,
+    multipliers), the (2n+1)-square LMI [[A0 - SA, b0 - Sb, 0], [., -1 - Sc, b0^T], [0, b0, -A0]] <= 0."""
+    m, n = Gs.shape
+    A0, b0 = cp.Variable((n, n), symmetric=True), cp.Variable((n, 1))
+    tau, sig = cp.Variable(m, nonneg=True), cp.Variable(len(extra), nonneg=True)
+    SA = Gs.T @ cp.diag(tau) @ Gs + sum(sig[i] * A for i, (A, _, _) in enumerate(extra))
+    Sb = cp.reshape(-(Gs.T * mid) @ tau + sum(sig[i] * b for i, (_, b, _) in enumerate(extra)), (n, 1), order="F")
+    Sc = (mid**2 - half**2) @ tau + sum(sig[i] * c for i, (_, _, c) in enumerate(extra))
+    M = cp.bmat([[A0 - SA, b0 - Sb, np.zeros((n, n))],
+                 [(b0 - Sb).T, cp.reshape(-1 - Sc, (1, 1), order="F"), b0.T],
+                 [np.zeros((n, n)), b0, -A0]])
+    cp.Problem(cp.Maximize(cp.log_det(A0)), [0.5 * (M + M.T) << 0]).solve(solver=cp.CLARABEL)
+    return np.linalg.slogdet(A0.value)[1]
+
+
+@pytest.mark.parametrize("seed,n,m,ball", [(0, 2, 5, False), (1, 3, 12, False), (2, 4, 9, True), (3, 6, 30, False)])
+def test_s_procedure_equals_textbook_form(seed, n, m, ball):
+    """The S-procedure as solved (max ln det SA over the multipliers, an (n+1)-square LMI) has the
+    optimum of the textbook (2n+1)-square form in (A0, b0, multipliers), a second formulation;
+    and its multipliers certify its ellipsoid exactly: sum tau_k q_k + sum sig_i q_i equals
+    (z - c)^T A0 (z - c) - 1, so every point of the strips (and quadrics) lies inside."""
+    rng = np.random.default_rng(seed)
+    Gs = rng.normal(size=(m, n))
+    Gs /= np.linalg.norm(Gs, axis=1)[:, None]
+    z0 = rng.normal(size=n) * 0.3
+    half = 0.5 + rng.random(m)
+    mid = Gs @ z0 + 0.3 * half * rng.uniform(-1, 1, m)
+    if not ball:                                       # make the strips bound the set
+        Gs, mid, half = np.vstack([np.eye(n), Gs]), np.concatenate([z0, mid]), np.concatenate([np.ones(n), half])
+    extra = [(np.eye(n), np.zeros(n), -1.0)] if ball else []
+    A0, b0, tau, sig, *_ = sdp._s_procedure(Gs, mid, half, extra, False, "test")
+    assert np.linalg.slogdet(A0)[1] == pytest.approx(_textbook_s_procedure(Gs, mid, half, extra), abs=1e-5)
+    c = -np.linalg.solve(A0, b0)
+    Z = rng.normal(size=(7, n))
+    for z in Z:
+        q = np.sum(tau * ((Gs @ z - mid) ** 2 - half**2)) + sum(s * (z @ A @ z + 2 * b @ z + cc)
+                                                             for s, (A, b, cc) in zip(sig, extra, strict=True))
+        assert q == pytest.approx((z - c) @ A0 @ (z - c) - 1, rel=1e-9, abs=1e-9)
+
+
 @pytest.mark.parametrize("p,N,seed", [(2, 30, 0), (3, 60, 2), (4, 80, 3)])
 def test_min_volume_bracket_against_vertex_enumeration(p, N, seed):
     """lower <= ln vol(minimum-volume ellipsoid of ALL vertices of P: Qhull, then the SDP of

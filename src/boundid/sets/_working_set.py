@@ -52,6 +52,8 @@ _FTOL = _DTOL = 1e-10
 CHUNK = 1 << 15
 #: a direction d is in the normal cone of a basis when its multipliers are >= -_CONE_TOL |d|
 _CONE_TOL = 1e-10
+#: optima (with their bases) a WorkingSetLP remembers as starts for new objectives
+_ARCHIVE = 2048
 _BLAS = ThreadpoolController()
 
 
@@ -382,6 +384,11 @@ class WorkingSetLP:
         #: the last optimal basis of each objective of a multi-objective minimize_many (by the
         #: bytes of its cost), so that each re-solve starts at its own vertex, not at the last one
         self._bases: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        #: optima of the pool found so far and their bases (the newest _ARCHIVE, a ring): a new
+        #: objective starts at the best of them (see _solve)
+        self._archive_x = np.empty((_ARCHIVE, self.n_cols))
+        self._archive: list[tuple[np.ndarray, np.ndarray]] = []
+        self._n_archived = 0
         #: HiGHS's copy of the LP, built the first time the vertex simplex gives up
         self._h: highspy.Highs | None = None
         for b, rows in seed:
@@ -426,6 +433,14 @@ class WorkingSetLP:
             here[n + other.row_of[b][ks]] = n + self.row_of[b][ks]
         self._act, self._side, self._x = here[other._act], other._side.copy(), None
         self._bases = {k: (here[a], s.copy()) for k, (a, s) in other._bases.items()}
+        for a, s in other._archive:               # the vertices, recomputed in these coordinates
+            act = here[a]
+            N = s[:, None] * self._A[act]
+            try:
+                x = np.linalg.solve(N, np.where(s > 0, self._up[act], -self._lo[act]))
+            except np.linalg.LinAlgError:
+                continue
+            self._archive_add(x, (act, s.copy()))
 
     @property
     def col_lo(self) -> np.ndarray:
@@ -494,19 +509,27 @@ class WorkingSetLP:
         return out
 
     # ------------------------------------------------------------------ solves
-    def _solve(self, cost: np.ndarray, keep_basis: bool = False) -> np.ndarray:
+    def _solve(self, cost: np.ndarray, keep_basis: bool = False, new: bool = False) -> np.ndarray:
         """argmin of cost^T x on the working set; ``keep_basis``: start from, and keep, the last
-        basis of this same objective.
+        basis of this same objective; ``new``: the first solve of this objective.
 
         The vertex simplex (:mod:`boundid.sets._vertex_lp`) starts from the last basis (primal
         feasible for a new objective, dual feasible after rows were added for the same one), or
         else from the corner of the column bounds that the objective picks (dual feasible when
-        that corner is finite). When it gives up, HiGHS solves the same LP and gives the verdict
-        on an infeasible or unbounded one."""
+        that corner is finite). A new objective starts instead at the remembered optimum of the
+        pool with the lowest cost, if it beats the last one: a primal feasible start already
+        close to the answer (strip extents of the UR5 study: a third of the simplex steps).
+        When it gives up, HiGHS solves the same LP and gives the verdict on an infeasible or
+        unbounded one."""
         cost = np.asarray(cost, dtype=float)
         d = -cost
         starts = []
         kept = self._bases.get(cost.tobytes()) if keep_basis else None
+        if new and kept is None and self._archive:
+            vals = self._archive_x[: len(self._archive)] @ cost
+            j = int(np.argmin(vals))
+            if self._x is None or vals[j] < cost @ self._x:
+                starts.append(self._archive[j])
         if kept is not None or self._act is not None:
             starts.append(kept if kept is not None else (self._act, self._side))
         corner = np.where(d >= 0, 1.0, -1.0)
@@ -582,9 +605,9 @@ class WorkingSetLP:
         for stage in stages:
             self.active[0] = stage
             pending = np.arange(costs.shape[0])
-            for _ in range(self.max_rounds):
+            for r in range(self.max_rounds):
                 for i in pending:
-                    X[i] = self._solve(costs[i], keep_basis=costs.shape[0] > 1)
+                    X[i] = self._solve(costs[i], keep_basis=costs.shape[0] > 1, new=r == 0)
                 worst = self.violators(X[pending].T, batch=max(8, self.batch // max(1, pending.size // 4)))
                 still = []
                 for i, w in zip(pending, worst, strict=True):
@@ -597,7 +620,25 @@ class WorkingSetLP:
                     break
             else:
                 raise SolverError(f"constraint generation did not converge in {self.max_rounds} rounds.")
+        self._remember(costs, X)
         return X
+
+    def _remember(self, costs: np.ndarray, X: np.ndarray) -> None:
+        """Archive the optima X of the pool (one per row of ``costs``) with their bases."""
+        for cost, x in zip(costs, X, strict=True):
+            basis = self._bases.get(cost.tobytes()) if costs.shape[0] > 1 else \
+                (self._act, self._side) if self._x is not None and np.array_equal(x, self._x) else None
+            if basis is not None and basis[0] is not None:
+                self._archive_add(x, basis)
+
+    def _archive_add(self, x: np.ndarray, basis: tuple[np.ndarray, np.ndarray]) -> None:
+        k = self._n_archived % _ARCHIVE
+        self._archive_x[k] = x
+        if k < len(self._archive):
+            self._archive[k] = basis
+        else:
+            self._archive.append(basis)
+        self._n_archived += 1
 
     def minimize(self, cost: np.ndarray) -> tuple[np.ndarray, float]:
         """argmin and min of cost^T x over the full pool (cost: (n_cols,))."""

@@ -242,18 +242,26 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
 
 def _s_procedure(Gs, mid, half, extra, allow_fallback: bool, what: str, study_scale: bool = False):
     """Minimum-volume ellipsoid containing ∩_i {|g_i^T z - mid_i| <= half_i} ∩ (extra quadrics)
-    by the S-procedure LMI ([Boyd1994] §3.7.2; [refs §SDP]).
+    by the S-procedure ([Boyd1994] §3.7.2; [refs §SDP]).
 
     Quadrics q(z) = z^T A z + 2 b^T z + c <= 0: a strip is (g g^T, -mid g, mid^2 - half^2);
-    ``extra`` is a list of (A, b, c). Returns (A0, b0, tau, sig, solver, status, Zd) in z
-    coordinates, Zd the (n+1) x (n+1) leading block of the LMI's dual matrix: adding a strip
-    with quadric matrix Q = [[A, b], [b^T, c]] can enlarge log det A0 only if tr(Zd Q) > 0
-    (its multiplier's reduced cost; Zd / Zd[n, n] holds pseudo-moments [[E zz^T, E z], [E z^T, 1]]).
+    ``extra`` is a list of (A, b, c). For multipliers tau, sig >= 0 the combination
+    q = sum tau_k q_k + sum sig_i q_i = z^T SA z + 2 Sb^T z + Sc is <= 0 on the set, so the set
+    lies in the ellipsoid {q <= 0} = {(z - c)^T SA (z - c) <= Sb^T SA^-1 Sb - Sc}, c = -SA^-1 Sb;
+    the S-procedure's optimum is such an ellipsoid (any ellipsoid it certifies contains one).
+    The multipliers scale freely, so: max ln det SA s.t. Sb^T SA^-1 Sb - Sc <= 1, i.e. the
+    (n+1)-square LMI [[SA, Sb], [Sb^T, 1 + Sc]] >= 0 (half the size of the textbook form's
+    (2n+1)-square LMI in (A0, b0, tau): the same optimum in 0.8 of the time at p = 22).
+
+    Returns (A0, b0, tau, sig, solver, status, Zd) in z coordinates: A0 = SA and b0 = Sb of the
+    multipliers, scaled so that the ellipsoid is {(z - c)^T A0 (z - c) <= 1} exactly, and Zd the
+    dual's (n+1) x (n+1) pseudo-moment matrix: the LMI's dual with, in its leading block, the
+    multiplier of SA (about SA^-1 plus that block). Adding a strip with quadric matrix
+    Q = [[A, b], [b^T, c]] can enlarge ln det A0 only if tr(Zd Q) > 0 (its multiplier's reduced
+    cost; Zd / Zd[n, n] holds pseudo-moments [[E zz^T, E z], [E z^T, 1]]).
     """
     n = Gs.shape[1] if Gs.size else extra[0][0].shape[0]
     m = Gs.shape[0]
-    A0 = cp.Variable((n, n), symmetric=True)
-    b0 = cp.Variable((n, 1))
     tau = cp.Variable(m, nonneg=True) if m else None
     sig = cp.Variable(len(extra), nonneg=True) if extra else None
     SA, Sb, Sc = 0, 0, 0
@@ -269,17 +277,35 @@ def _s_procedure(Gs, mid, half, extra, allow_fallback: bool, what: str, study_sc
         SA = SA + sig[i] * Ai
         Sb = Sb + sig[i] * bi[:, None]
         Sc = Sc + sig[i] * ci
-    Z = np.zeros((n, n))
-    M = cp.bmat([[A0 - SA, b0 - Sb, Z],
-                 [(b0 - Sb).T, cp.reshape(-1 - Sc, (1, 1), order="F"), b0.T],
-                 [Z, b0, -A0]])
-    lmi = 0.5 * (M + M.T) << 0
-    prob = cp.Problem(cp.Maximize(cp.log_det(A0)), [lmi])
+    # ln det of a variable X tied to SA by equalities: 1.2x faster than ln det of the affine SA
+    # itself, whose every multiplier would then enter ln det's semidefinite cone
+    X = cp.Variable((n, n), symmetric=True)
+    M = cp.bmat([[X, Sb], [Sb.T, cp.reshape(1 + Sc, (1, 1), order="F")]])
+    lmi = 0.5 * (M + M.T) >> 0
+    tie = X == SA
+    prob = cp.Problem(cp.Maximize(cp.log_det(X)), [lmi, tie])
     solver, status = _solve(prob, allow_fallback, what, study_scale, CLARABEL_DENSE_LINALG)
     tau_v = np.clip(tau.value, 0, None) if m else np.zeros(0)
     sig_v = np.clip(sig.value, 0, None) if extra else np.zeros(0)
-    Zd = lmi.dual_value[: n + 1, : n + 1] if lmi.dual_value is not None else None
-    return 0.5 * (A0.value + A0.value.T), b0.value.ravel(), tau_v, sig_v, solver, status, Zd
+    A0 = (Gs.T * tau_v) @ Gs if m else np.zeros((n, n))
+    b0 = -(Gs.T @ (mid * tau_v)) if m else np.zeros(n)
+    c0 = float(np.sum((mid**2 - half**2) * tau_v)) if m else 0.0
+    for s, (Ai, bi, ci) in zip(sig_v, extra, strict=True):
+        A0, b0, c0 = A0 + s * Ai, b0 + s * bi, c0 + s * ci
+    A0 = 0.5 * (A0 + A0.T)
+    try:
+        r2 = float(b0 @ np.linalg.solve(A0, b0)) - c0
+    except np.linalg.LinAlgError:
+        raise SolverError(f"{what}: the SDP returned multipliers whose quadric is not an ellipsoid.") from None
+    if not r2 > 0:
+        raise SolverError(f"{what}: the SDP returned multipliers whose quadric is empty or a point (r^2 = {r2:.3g}).")
+    Zd = None
+    if lmi.dual_value is not None and tie.dual_value is not None:
+        # the leading block is the multiplier of SA: the tie's (symmetrised: it binds all n^2 entries)
+        Zd = np.array(lmi.dual_value, dtype=float)
+        Zd[:n, :n] = 0.5 * (tie.dual_value + tie.dual_value.T)
+    # multipliers / r2: the combined quadric is then (z - c)^T A0 (z - c) - 1
+    return A0 / r2, b0 / r2, tau_v / r2, sig_v / r2, solver, status, Zd
 
 
 def _certified(A0, b0, Gs, mid, half, tau, extra, sig, r2_bound: float, what: str):
