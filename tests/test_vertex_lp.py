@@ -170,3 +170,31 @@ def test_polytope_without_a_prior_box_needs_highs_once():
         lo = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * p, method="highs",
                      options={"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}).fun
         assert b.lo[j] == pytest.approx(lo, abs=1e-7 * (b.hi[j] - b.lo[j]))
+
+
+def test_new_objective_starts_at_the_best_remembered_optimum(monkeypatch):
+    """A new objective starts at the archived optimum of the pool with the lowest cost: asked again
+    for a direction solved earlier (after others moved the last basis away), its first simplex
+    run starts at that direction's own optimal basis and takes no step; the answers still match
+    linprog (an independent solver)."""
+    import boundid.sets._working_set as ws
+
+    rng = np.random.default_rng(4)
+    n, m = 8, 1500
+    G, lo, up = _strips(rng, m, n)
+    lp = WorkingSetLP([Block(G, lo.copy(), up.copy())], -np.ones(n), np.ones(n), tol=1e-9)
+    D = rng.normal(size=(12, n))
+    for d in D:
+        lp.minimize_many(-d[None, :])
+    steps = []
+    real = ws.vertex_simplex
+
+    def counting(*args):
+        out = real(*args)
+        steps.append(out[3])
+        return out
+
+    monkeypatch.setattr(ws, "vertex_simplex", counting)
+    x = lp.minimize_many(-D[0][None, :])[0]
+    assert steps[0] == 0
+    assert D[0] @ x == pytest.approx(_linprog_max(D[0], G, lo, up, -np.ones(n), np.ones(n)), abs=1e-9)

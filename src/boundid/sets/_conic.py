@@ -43,10 +43,10 @@ _OK = (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
 #: one faer thread), and one thread keeps a run's numbers the same from run to run.
 CLARABEL_LINALG = {"direct_solve_method": "qdldl"}
 #: ... except for the S-procedure SDPs (:func:`boundid.sets.sdp.outer_ellipsoid` and
-#: ``step_ellipsoid``), whose KKT system is one dense block (a (2p+1)-square LMI): there faer on one
-#: thread is faster (the UR5 study's SDP, p = 22 and 434 strips: 2.1 s against 3.3 s a solve; the
-#: H4's outer ellipsoid 0.9 s against 1.3 s), and on one thread its numbers are the same from run to
-#: run. A solve that fails with it is tried again with QDLDL.
+#: ``step_ellipsoid``), whose KKT system is dense blocks (a (p+1)-square LMI and ln det's 2p-square
+#: cone): there faer on one thread is faster (the UR5 study's SDP, p = 22 and 434 strips: 1.4 s
+#: against 3.4 s a solve), and on one thread its numbers are the same from run to run. A solve that
+#: fails with it is tried again with QDLDL.
 CLARABEL_DENSE_LINALG = {"direct_solve_method": "faer", "max_threads": 1}
 #: Clarabel settings of the second attempt after a numerical failure
 RETRY = {"tol_gap_abs": 1e-7, "tol_gap_rel": 1e-7, "tol_feas": 1e-7, "static_regularization_constant": 1e-7}
