@@ -196,15 +196,14 @@ def test_solver_failure_is_reported(monkeypatch):
     """A solver that does not reach 'optimal' raises SolverError with its status (no silent
     fallback); with allow_fallback=True the SCS answer is used and re-verified."""
     P = random_polytope(8, 2, 15)
-    real = cp.Problem.solve
+    real = sdp._run
 
-    def clarabel_fails(self, *args, **kwargs):
-        out = real(self, *args, **kwargs)
-        if kwargs.get("solver") == cp.CLARABEL:
-            self._status = "infeasible_inaccurate"
-        return out
+    def clarabel_fails(problem, solver, **opts):
+        real(problem, solver, **opts)
+        if solver == cp.CLARABEL:
+            problem._status = "infeasible_inaccurate"
 
-    monkeypatch.setattr(cp.Problem, "solve", clarabel_fails)
+    monkeypatch.setattr(sdp, "_run", clarabel_fails)
     with pytest.raises(SolverError, match="infeasible_inaccurate"):
         sdp.inner_ellipsoid(P)
     r = sdp.outer_ellipsoid(P, allow_fallback=True)
@@ -330,3 +329,34 @@ def test_john_outer_contains_a_simplex(seed):
     john = sdp.john_outer(P)
     assert np.all(john.ellipsoid.mahalanobis2(P.vertices()) <= 1 + 1e-12)
     assert np.all(john.ellipsoid.mahalanobis2(V) <= 1 + 1e-9)
+
+
+def test_polytope_ellipsoids_concurrent_equal_one_after_the_other():
+    """The outer and inscribed ellipsoids solved at once (two threads) are those of the calls one
+    after the other on a fresh copy of the polytope (the same algorithms run alone), John's too;
+    and the outer one, certified, still contains every vertex (Qhull, independent of the LPs)."""
+    P, Q = random_polytope(3, 5, 300), random_polytope(3, 5, 300)
+    got = sdp.polytope_ellipsoids(P)
+    ref = {"outer": sdp.outer_ellipsoid(Q), "inner": sdp.inner_ellipsoid(Q), "john": sdp.john_outer(Q)}
+    assert list(got) == ["outer", "inner", "john"]
+    for name, (res, seconds) in got.items():
+        assert isinstance(res, sdp.SDPResult) and seconds > 0
+        np.testing.assert_allclose(res.ellipsoid.center, ref[name].ellipsoid.center, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(res.ellipsoid.shape, ref[name].ellipsoid.shape, rtol=1e-12, atol=1e-12)
+    assert np.all(got["outer"][0].ellipsoid.contains(P.vertices()))
+
+
+def test_polytope_ellipsoids_report_a_failure_and_keep_the_others(monkeypatch):
+    """A failing inscribed ellipsoid comes back as its exception (John's, which needs it, too);
+    the outer one is still solved; an unknown name is refused."""
+    P = random_polytope(4, 3, 60)
+
+    def fails(*args, **kwargs):
+        raise SolverError("inner_ellipsoid: made to fail")
+
+    monkeypatch.setattr(sdp, "inner_ellipsoid", fails)
+    got = sdp.polytope_ellipsoids(P)
+    assert isinstance(got["inner"][0], SolverError) and isinstance(got["john"][0], SolverError)
+    assert np.all(got["outer"][0].ellipsoid.contains(P.vertices()))
+    with pytest.raises(InputError, match="unknown ellipsoids"):
+        sdp.polytope_ellipsoids(P, ("outer", "lowner"))

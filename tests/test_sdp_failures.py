@@ -33,14 +33,13 @@ def test_failed_solve_raises_by_default(monkeypatch, name):
     """Clarabel made to end 'infeasible_inaccurate' (the real solve runs, its status is replaced):
     with the default arguments the call raises SolverError naming that status, never a silent
     SCS answer."""
-    real = cp.Problem.solve
+    real = sdp._run
 
-    def clarabel_fails(self, *args, **kwargs):
-        out = real(self, *args, **kwargs)
-        if kwargs.get("solver") == cp.CLARABEL:
-            self._status = "infeasible_inaccurate"
-        return out
+    def clarabel_fails(problem, solver, **opts):
+        real(problem, solver, **opts)
+        if solver == cp.CLARABEL:
+            problem._status = "infeasible_inaccurate"
 
-    monkeypatch.setattr(cp.Problem, "solve", clarabel_fails)
+    monkeypatch.setattr(sdp, "_run", clarabel_fails)
     with pytest.raises(SolverError, match="infeasible_inaccurate"):
         CALLS[name]()

@@ -46,7 +46,9 @@ Goals (study scale):
   the study's own regression (built by the study machinery, cached under .cache/boundid); each
   study's stage runs 3 times on a fresh polytope and its row is the median run, with the range
   of the 3 in `detail` (the shared machine's speed varies by a third from minute to minute).
-  The outer ellipsoid is the S-procedure by column generation over every tightened strip; its
+  The stage runs as in a study: the outer and inscribed ellipsoids at once, in two threads
+  (:func:`boundid.sets.sdp.polytope_ellipsoids`); `detail` gives each one's own wall time and the
+  stage's CPU time. The outer ellipsoid is the S-procedure by column generation over every tightened strip; its
   reference in the same run is the previous method (one LP per candidate side for redundancy
   removal, 2 LPs per non-redundant strip for tightening, then one S-procedure on all of them):
   `ratio` = reference time / our time; `log_vol_per_axis` of both (ours may only be smaller).
@@ -282,14 +284,18 @@ STUDY_RUNS = 3
 
 
 def _exact_stage(W, y, e, box) -> dict:
-    """One run of the exact stage on a fresh polytope: {stage: (time, result)}."""
+    """One run of the exact stage on a fresh polytope, as a study runs it: the LP bounds, then
+    :func:`boundid.sets.sdp.polytope_ellipsoids` (the outer and inscribed ellipsoids at once, then
+    John's). {stage: (wall time, result)}, and "total": (wall time, CPU time of the process)."""
     P = Polytope.from_strips(W, y, e, box=box)
-    t = {}
-    for what, f in (("LP bounds", Polytope.bounds), ("SDP outer", sdp.outer_ellipsoid),
-                    ("SDP inner", sdp.inner_ellipsoid), ("SDP John", sdp.john_outer)):
-        t0 = time.perf_counter()
-        out = f(P)
-        t[what] = (time.perf_counter() - t0, out)
+    w0, c0 = time.perf_counter(), time.process_time()
+    t = {"LP bounds": (0.0, P.bounds())}
+    t["LP bounds"] = (time.perf_counter() - w0, t["LP bounds"][1])
+    for name, (out, seconds) in sdp.polytope_ellipsoids(P).items():
+        if isinstance(out, Exception):
+            raise out
+        t[f"SDP {'John' if name == 'john' else name}"] = (seconds, out)
+    t["total"] = (time.perf_counter() - w0, time.process_time() - c0)
     return t
 
 
@@ -298,11 +304,10 @@ def _study_rows(paths, reference: bool, runs: int = STUDY_RUNS):
     for path in paths:
         name, W, y, e, box = _study_regression(path)
         N, p = W.shape
-        stages = sorted((_exact_stage(W, y, e, box) for _ in range(runs)),
-                        key=lambda t: sum(v[0] for v in t.values()))
-        totals = [sum(v[0] for v in t.values()) for t in stages]
+        stages = sorted((_exact_stage(W, y, e, box) for _ in range(runs)), key=lambda t: t["total"][0])
+        totals = [t["total"][0] for t in stages]
         t = stages[len(stages) // 2]
-        total = sum(v[0] for v in t.values())
+        total, cpu = t["total"]
         outer = t["SDP outer"][1]
         R = Polytope.from_strips(W, y, e, box=box)
         R.bounds()
@@ -318,11 +323,11 @@ def _study_rows(paths, reference: bool, runs: int = STUDY_RUNS):
             ref_t = time.perf_counter() - t0
             detail = f"previous method: {len(nr)} non-redundant strips, ln vol / p = {ref_lv / p:.6f}; "
         rows.append({"case": f"study {name} exact stage (N={N}, p={p})",
-                     "method": "LP bounds + SDP outer + inner + John", "time_s": total,
-                     "reference": "", "ref_time_s": np.nan, "ratio": np.nan, "max_dev": np.nan,
+                     "method": "LP bounds, then SDP outer and inner at once (2 threads), then John",
+                     "time_s": total, "reference": "", "ref_time_s": np.nan, "ratio": np.nan, "max_dev": np.nan,
                      "log_vol_per_axis": np.nan, "load_avg": _load(),
-                     "detail": ", ".join(f"{k} {v[0]:.2f} s" for k, v in t.items())
-                               + f"; median of {runs} runs ({totals[0]:.2f}-{totals[-1]:.2f} s)"})
+                     "detail": ", ".join(f"{k} {v[0]:.2f} s" for k, v in t.items() if k != "total")
+                               + f"; CPU {cpu:.2f} s; median of {runs} runs ({totals[0]:.2f}-{totals[-1]:.2f} s)"})
         rows.append({"case": f"study {name} SDP outer (N={N}, p={p})",
                      "method": "S-procedure, column generation over every tightened strip",
                      "time_s": t["SDP outer"][0], "reference": "previous: every non-redundant strip, 1 LP/side",

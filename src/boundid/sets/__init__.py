@@ -13,7 +13,7 @@ from boundid.sets.vertex_polytope import VertexPolytope, shadow
 from boundid.sets.zonotope import Zonotope
 
 _SDP = ("SDPResult", "VolumeBracket", "enclosing_ellipsoid", "inner_ellipsoid", "john_outer", "min_volume_bracket",
-        "outer_ellipsoid", "step_ellipsoid")
+        "outer_ellipsoid", "polytope_ellipsoids", "step_ellipsoid")
 
 __all__ = ["Ellipsoid", "log_unit_ball_volume", "Bounds", "Consistency", "Polytope", "Box", "ConvexSet",
            "Parallelotope", "VertexPolytope", "Zonotope", "shadow", "support_values", *_SDP]

@@ -14,8 +14,8 @@ from boundid.estimators import Estimate
 from boundid.estimators.certify import validate
 from boundid.experiments.regression import Regression
 from boundid.models import RobotModel
-from boundid.sets import Polytope, SDPResult, inner_ellipsoid, john_outer, outer_ellipsoid
-from boundid.sets.sdp import VolumeBracket, min_volume_bracket
+from boundid.sets import Polytope, SDPResult
+from boundid.sets.sdp import VolumeBracket, min_volume_bracket, polytope_ellipsoids
 from boundid.studies.config import StudyConfig
 from boundid.studies.data import StudyData, acquire
 from boundid.studies.estimation import prior_box, run_estimator
@@ -101,15 +101,16 @@ def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, set_estim
             except RUN_FAILURES as exc:
                 res.errors["bounds"] = _reason(exc)
             res.time_s["lp_bounds"] = time.perf_counter() - t0
-    solvers = {"outer": outer_ellipsoid, "inner": inner_ellipsoid, "john": john_outer}
-    for name in cfg.exact.sdp:
-        with progress.stage(f"{cfg.name}: SDP {name} ellipsoid"):
-            t0 = time.perf_counter()
-            try:
-                res.sdp[name] = solvers[name](P)
-            except RUN_FAILURES as exc:
-                res.errors[name] = _reason(exc)
-            res.time_s[f"sdp_{name}"] = time.perf_counter() - t0
+    if cfg.exact.sdp:
+        with progress.stage(f"{cfg.name}: SDP {', '.join(cfg.exact.sdp)} ellipsoids"):
+            for name, (out, seconds) in polytope_ellipsoids(P, cfg.exact.sdp).items():
+                if isinstance(out, RUN_FAILURES):
+                    res.errors[name] = _reason(out)
+                elif isinstance(out, Exception):
+                    raise out
+                else:
+                    res.sdp[name] = out
+                res.time_s[f"sdp_{name}"] = seconds
     have_volumes = "outer" in res.sdp and "inner" in res.sdp
     if have_volumes and cfg.exact.volume_bracket:
         with progress.stage(f"{cfg.name}: bracket of the minimum-volume outer ellipsoid"):
