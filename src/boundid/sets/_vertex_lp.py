@@ -137,7 +137,7 @@ def _replace(Ninv, N, b, j, row, rhs):
     b[j] = rhs
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)   # releases the GIL: another thread's SDP compiles meanwhile
 def vertex_simplex(A, lo, up, d, act, side, ftol, dtol, max_steps):
     """max d^T x over lo <= A x <= up from the basis (act, side), both (n,), updated in place.
 
