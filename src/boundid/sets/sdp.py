@@ -386,9 +386,9 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
     with the interval spanned by the points of P found so far, which can only overstate its
     reduced cost (the true extent is wider); the candidates are then tightened exactly by LP
     (batched supports, which also add points) and priced again. When some strip helps, every
-    strip within 10 ``price_tol`` of helping joins the working set with it. A strip whose multiplier is zero
-    (below 1e-6 of the largest) leaves the working set and is priced with the pool from then on
-    (column dropping: the SDP's cost grows with its strips). It stops when no pool strip
+    strip within 10 ``price_tol`` of helping joins the working set with it. A strip whose
+    multiplier is zero (below 1e-6 of the largest) leaves the working set and is priced with the
+    pool from then on (column dropping: the SDP's cost grows with its strips). It stops when no pool strip
     has a reduced cost above ``price_tol`` (in the box frame's squared units): the ellipsoid
     is then the S-procedure optimum over the whole tightened pool, found with a few dozen
     strips in the SDP instead of every non-redundant one. ``info["max_reduced_cost"]`` records
