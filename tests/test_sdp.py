@@ -192,25 +192,6 @@ def test_bad_inputs_raise():
             f(bad)
 
 
-def test_solver_failure_is_reported(monkeypatch):
-    """A solver that does not reach 'optimal' raises SolverError with its status (no silent
-    fallback); with allow_fallback=True the SCS answer is used and re-verified."""
-    P = random_polytope(8, 2, 15)
-    real = sdp._run
-
-    def clarabel_fails(problem, solver, **opts):
-        real(problem, solver, **opts)
-        if solver == cp.CLARABEL:
-            problem._status = "infeasible_inaccurate"
-
-    monkeypatch.setattr(sdp, "_run", clarabel_fails)
-    with pytest.raises(SolverError, match="infeasible_inaccurate"):
-        sdp.inner_ellipsoid(P)
-    r = sdp.outer_ellipsoid(P, allow_fallback=True)
-    assert r.solver == "SCS"
-    assert np.all(r.ellipsoid.contains(P.vertices()))
-
-
 @pytest.mark.parametrize("p,N,seed,drops", [(2, 40, 0, False), (3, 60, 1, False), (3, 150, 5, False),
                                              (5, 400, 7, True)])
 def test_outer_column_generation_equals_full_s_procedure(p, N, seed, drops):

@@ -28,11 +28,8 @@ CALLS = {
 }
 
 
-@pytest.mark.parametrize("name", sorted(CALLS))
-def test_failed_solve_raises_by_default(monkeypatch, name):
-    """Clarabel made to end 'infeasible_inaccurate' (the real solve runs, its status is replaced):
-    with the default arguments the call raises SolverError naming that status, never a silent
-    SCS answer."""
+def _clarabel_fails(monkeypatch):
+    """Make Clarabel end 'infeasible_inaccurate' (the real solve runs, its status is replaced)."""
     real = sdp._run
 
     def clarabel_fails(problem, solver, **opts):
@@ -41,5 +38,22 @@ def test_failed_solve_raises_by_default(monkeypatch, name):
             problem._status = "infeasible_inaccurate"
 
     monkeypatch.setattr(sdp, "_run", clarabel_fails)
+
+
+@pytest.mark.parametrize("name", sorted(CALLS))
+def test_failed_solve_raises_by_default(monkeypatch, name):
+    """With Clarabel failing and the default arguments the call raises SolverError naming that
+    status, never a silent SCS answer."""
+    _clarabel_fails(monkeypatch)
     with pytest.raises(SolverError, match="infeasible_inaccurate"):
         CALLS[name]()
+
+
+def test_fallback_answer_is_verified(monkeypatch):
+    """With Clarabel failing and allow_fallback=True the SCS answer is used, re-verified: the outer
+    ellipsoid still contains every vertex of P (Qhull, independent of the solvers)."""
+    _clarabel_fails(monkeypatch)
+    P = _polytope()
+    r = sdp.outer_ellipsoid(P, allow_fallback=True)
+    assert r.solver == "SCS"
+    assert np.all(r.ellipsoid.contains(P.vertices()))
