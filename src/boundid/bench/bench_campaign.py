@@ -26,7 +26,7 @@ LP bounds per replicate. Column `estimators` says which estimators each row's re
 "all 13" is every [[estimators]] table of the study (13 estimator x regression fits, five set
 families among them); the row "in-process loop, without Polytope (limited)" runs every estimator
 but the limited-complexity polytope (the `[campaign] estimators` option of the study file), the
-family that costs half of a replicate (an LP per block of 900 strips).
+costliest family (an LP per block of 900 strips; compare the two in-process rows).
 
 - Cases: in this process (no cluster), and a dask.distributed LocalCluster of 1 and 2 worker
   processes (1 thread each; `boundid.studies.campaign.connect`, as `boundid campaign` starts it;
