@@ -518,7 +518,7 @@ class WorkingSetLP:
         else from the corner of the column bounds that the objective picks (dual feasible when
         that corner is finite). A new objective starts instead at the remembered optimum of the
         pool with the lowest cost, if it beats the last one: a primal feasible start already
-        close to the answer (strip extents of the UR5 study: a third of the simplex steps).
+        close to the answer (strip extents of the UR5 study: half the simplex steps).
         When it gives up, HiGHS solves the same LP and gives the verdict on an infeasible or
         unbounded one."""
         cost = np.asarray(cost, dtype=float)
@@ -626,12 +626,17 @@ class WorkingSetLP:
     def _remember(self, costs: np.ndarray, X: np.ndarray) -> None:
         """Archive the optima X of the pool (one per row of ``costs``) with their bases."""
         for cost, x in zip(costs, X, strict=True):
-            basis = self._bases.get(cost.tobytes()) if costs.shape[0] > 1 else \
-                (self._act, self._side) if self._x is not None and np.array_equal(x, self._x) else None
+            if costs.shape[0] > 1:                  # each objective kept its own last basis
+                basis = self._bases.get(cost.tobytes())
+            elif self._x is not None and np.array_equal(x, self._x):
+                basis = (self._act, self._side)
+            else:                                   # the last basis is not this answer's
+                basis = None
             if basis is not None and basis[0] is not None:
                 self._archive_add(x, basis)
 
     def _archive_add(self, x: np.ndarray, basis: tuple[np.ndarray, np.ndarray]) -> None:
+        """Put (x, basis) in the ring, over the oldest entry once it is full."""
         k = self._n_archived % _ARCHIVE
         self._archive_x[k] = x
         if k < len(self._archive):
