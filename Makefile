@@ -3,19 +3,40 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
+# the lock for this Python (3.11 or 3.12; Linux x86-64): exact versions with hashes, made by `make lock`
+PYV    := $(shell $(PYTHON) -c 'import sys; print("%d%d" % sys.version_info[:2])')
+LOCK   := requirements/lock-py$(PYV).txt
+UV     := build/uv/bin/uv
 # two workers: the machines have 2 cores; one BLAS/numba thread each, or they oversubscribe them
 THREADS := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 NUMBA_NUM_THREADS=1
 PYTEST := $(THREADS) $(BIN)/pytest -n 2 -q
 
-.PHONY: install test test-all bench report lint teach campaign test-browser mutation docs clean
+.PHONY: install lock test test-all test-latest test-platforms bench report lint teach campaign test-browser mutation docs clean
 
-$(STAMP): pyproject.toml
+# installs exactly the lock (pip refuses a package without its pinned hash), then boundid itself, without dependencies
+$(STAMP): pyproject.toml $(LOCK)
+	@test -f $(LOCK) || (echo "no lock for Python $(PYV): boundid is locked for 3.11 and 3.12; run with PYTHON=python3.11" && exit 2)
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[dev]'
+	$(BIN)/python -m pip install -q --require-hashes -r $(LOCK)
+	$(BIN)/python -m pip install -q --no-deps --no-build-isolation -e .
 	touch $(STAMP)
 
 install: $(STAMP)
+
+# regenerate the locks from pyproject.toml's ranges (newest versions they allow, today), with uv pinned here
+lock:
+	test -x $(UV) || ($(PYTHON) -m venv build/uv && build/uv/bin/python -m pip install -q uv==0.13.8)
+	for v in 3.11 3.12; do \
+	  $(UV) pip compile pyproject.toml requirements/build.in --extra dev --generate-hashes --no-header \
+	    --python-version $$v --python-platform x86_64-manylinux_2_28 \
+	    -o requirements/lock-py$$(echo $$v | tr -d .).txt || exit 1; \
+	done
+
+# the drift check: a separate environment with the newest releases pyproject.toml's ranges allow, the fast suite
+test-latest:
+	rm -rf .venv-latest && $(PYTHON) -m venv .venv-latest
+	.venv-latest/bin/python -m pip install -q --upgrade -e '.[dev]'
+	$(THREADS) .venv-latest/bin/pytest -n 2 -q -p no:cacheprovider -m "not slow and not browser"
 
 test: $(STAMP)
 	$(PYTEST) -m "not slow and not browser"
@@ -60,4 +81,4 @@ test-browser: $(STAMP)
 	$(BIN)/python tests/browser_check.py reports --shots build/screenshots
 
 clean:
-	rm -rf $(VENV) .pytest_cache build src/*.egg-info
+	rm -rf $(VENV) .venv-latest .pytest_cache build src/*.egg-info

@@ -1,10 +1,12 @@
 """Ellipsoid geometry against closed forms (areas, support functions, projections)."""
 
+import pickle
+
 import numpy as np
 import pytest
 
 from boundid.errors import InputError
-from boundid.sets import Ellipsoid, log_unit_ball_volume
+from boundid.sets import Ellipsoid, RootInformationEllipsoid, log_unit_ball_volume
 
 
 def test_volume_closed_form():
@@ -61,3 +63,73 @@ def test_ellipsoid_owns_its_centre():
     E = Ellipsoid(c, np.eye(2))
     c += 10.0
     np.testing.assert_array_equal(E.center, [1.0, 2.0])
+
+
+def _root_form(rng, n):
+    """A well-conditioned ellipsoid in both forms: X from the QR of a random matrix, S = sigma (X^T X)^-1."""
+    X = np.linalg.qr(rng.normal(size=(n + 3, n)))[1]
+    X *= np.sign(np.diag(X))[:, None]  # positive diagonal
+    z, sigma = rng.normal(size=n), rng.uniform(0.2, 3.0)
+    E = RootInformationEllipsoid(X, z, sigma)
+    return E, Ellipsoid(np.linalg.solve(X, z), sigma * np.linalg.inv(X.T @ X))
+
+
+def test_root_information_form_answers_as_the_shape_form():
+    """Second representation of the same set: every ConvexSet answer of {|X x - z|^2 <= sigma}
+    (triangular solves with X) equals that of the Ellipsoid built from S = sigma (X^T X)^-1."""
+    rng = np.random.default_rng(5)
+    for n in (1, 2, 4, 7):
+        R, E = _root_form(rng, n)
+        np.testing.assert_allclose(R.center, E.center, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(R.shape, E.shape, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(R.information, E.information, rtol=1e-10, atol=1e-12)
+        assert R.log_volume() == pytest.approx(E.log_volume(), rel=1e-12)
+        np.testing.assert_allclose(R.semi_axes(), E.semi_axes(), rtol=1e-10)
+        np.testing.assert_allclose(R.intervals(), E.intervals(), rtol=1e-10, atol=1e-12)
+        D = rng.normal(size=(5, n))
+        np.testing.assert_allclose(R.supports(D), E.supports(D), rtol=1e-10, atol=1e-12)
+        assert R.support(D[0]) == pytest.approx(E.support(D[0]), rel=1e-10)
+        np.testing.assert_allclose(R.extent(D[1]), E.extent(D[1]), rtol=1e-10, atol=1e-12)
+        P = E.center + rng.normal(size=(50, n)) * np.sqrt(np.diag(E.shape))
+        np.testing.assert_allclose(R.mahalanobis2(P), E.mahalanobis2(P), rtol=1e-10)
+        np.testing.assert_array_equal(R.contains(P), E.contains(P))
+        assert R.scaled(1.5).log_volume() == pytest.approx(E.scaled(1.5).log_volume(), rel=1e-12)
+        if n >= 2:
+            Rp, Ep = R.project(0, n - 1), E.project(0, n - 1)
+            np.testing.assert_allclose(Rp.shape, Ep.shape, rtol=1e-10, atol=1e-12)
+        if n == 2:
+            B = R.boundary(64)
+            np.testing.assert_allclose(E.mahalanobis2(B), 1.0, rtol=1e-10)
+        again = pickle.loads(pickle.dumps(R))  # estimates travel to Dask workers
+        np.testing.assert_array_equal(again.X, R.X) and np.testing.assert_array_equal(again.center, R.center)
+
+
+def test_root_information_form_holds_what_no_shape_matrix_can():
+    """Closed form: X = diag(1, 1e9) has S = diag(1, 1e-18), condition 1e18, beyond what a
+    Cholesky factorisation in double precision can vouch for once rotated. Rotated by an
+    orthogonal Q (X Q^T, re-triangularised by QR), the set is the same: the point at distance
+    1 - 1e-9 along the thin axis is inside and 1 + 1e-6 is outside, as in exact arithmetic."""
+    theta = 0.3
+    Q = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+    _, X = np.linalg.qr(np.diag([1.0, 1e9]) @ Q.T)
+    X *= np.sign(np.diag(X))[:, None]
+    c = np.array([2.0, -1.0])
+    R = RootInformationEllipsoid(X, X @ c, 1.0)
+    thin = Q[:, 1]  # the axis of semi-axis 1e-9
+    assert R.contains(c + (1 - 1e-9) * 1e-9 * thin)
+    assert not R.contains(c + (1 + 1e-6) * 1e-9 * thin)
+    assert R.semi_axes() == pytest.approx([1.0, 1e-9], rel=1e-7)
+    assert R.support(thin) - thin @ R.center == pytest.approx(1e-9, rel=1e-7)
+
+
+@pytest.mark.parametrize("X, z, sigma, match", [
+    (np.array([[1.0, 0.0], [1.0, 1.0]]), [0.0, 0.0], 1.0, "upper triangular"),
+    (np.array([[1.0, 0.0], [0.0, -1.0]]), [0.0, 0.0], 1.0, "positive diagonal"),
+    (np.eye(2), [0.0, np.nan], 1.0, "z"),
+    (np.eye(2), [0.0, 0.0], 0.0, "sigma"),
+    (np.eye(2), [0.0, 0.0], np.inf, "sigma"),
+    (np.eye(3), [0.0, 0.0], 1.0, "X must have 2 columns"),
+])
+def test_root_information_bad_input_is_named(X, z, sigma, match):
+    with pytest.raises(InputError, match=match):
+        RootInformationEllipsoid(X, z, sigma)

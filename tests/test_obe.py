@@ -11,7 +11,8 @@ from scipy.optimize import minimize_scalar
 from boundid.errors import InfeasibleDataError, InputError, SolverError
 from boundid.estimators import OBE
 from boundid.estimators import _obe_kernels as K
-from boundid.sets import Box, Ellipsoid, Polytope, step_ellipsoid
+from boundid.sets import Box, Ellipsoid, Polytope, RootInformationEllipsoid, step_ellipsoid
+from test_obe_guarantee import is_outside
 
 CRITERIA = ("volume", "trace", "dasgupta-huang")
 FORMS = ("standard", "factorized")
@@ -119,25 +120,33 @@ def _ill_conditioned(seed):
 
 
 @pytest.mark.parametrize("seed", [0, 2])
-def test_factorized_form_survives_ill_conditioning_where_standard_cannot_vouch(seed):
+def test_factorized_form_survives_ill_conditioning_standard_says_why(seed):
     """Numerical robustness ([H4Paper] §III.B): on cond(W) ~ 1e7-1e8 data followed by 5000 nearly
     collinear rows, the square-root form stays finite and positive definite (X has a positive
-    diagonal) and its own set, |X theta - z|^2 <= sigma, contains the truth; the shape matrix the
-    Estimate needs cannot carry that set to 1e-9 (its condition number is ~1e16), which it says
-    ("unverified", naming the Skeel condition of X). The standard form either loses positive
-    definiteness (SolverError) or cannot vouch for its set; it is never "guaranteed"."""
+    diagonal) and reports its set in its own form, {|X theta - z|^2 <= sigma}, whose shape matrix
+    sigma X^-1 X^-T would have condition number cond(X)^2 ~ 1e16 and could not be held in double
+    precision: it vouches for it, and the truth is inside in exact arithmetic. The contract for
+    the standard form (whose outcome here depends on rounding): a guaranteed set contains the
+    truth; otherwise it says why ("unverified" with a reason, or SolverError)."""
     theta, W, y, e = _ill_conditioned(seed)
     assert np.linalg.cond(W) > 1e6
     fac = OBE(6, shape0=100.0, form="factorized", record_every=500)
     est = fac.fit(W, y, e)
     assert np.all(np.isfinite(fac._X)) and np.all(np.diag(fac._X) > 0)
-    assert fac.mahalanobis2(theta)[0] <= 1.0
-    assert est.kind == "unverified" and "Skeel" in est.unverified_reason
+    assert np.linalg.cond(fac._X) ** 2 > 1e14  # the case the form is for
+    assert isinstance(est.set, RootInformationEllipsoid)
+    assert est.kind == "guaranteed" and est.error_bound < 1e-8  # far from VOUCH_MAX on any CPU
+    assert not is_outside(est.set, theta) and est.set.contains(theta)
     std = OBE(6, shape0=100.0, form="standard", record_every=500)
     try:
-        assert std.fit(W, y, e).kind == "unverified"
+        s = std.fit(W, y, e)
     except SolverError as exc:
         assert "positive definiteness" in str(exc)
+        return
+    if s.kind == "guaranteed":
+        assert not is_outside(s.set, theta)
+    else:
+        assert s.kind == "unverified" and s.unverified_reason
 
 
 # ---------------------------------------------------------------------------- the weights

@@ -127,27 +127,34 @@ def test_sigma_update_is_accurate_where_the_textbook_form_cancels():
     assert worst_textbook > 1e-6  # the cancellation the new form avoids is real
 
 
-def test_factorized_shape_conversion_bound_holds_against_exact_arithmetic():
-    """Reference: (X^T X)^-1 sigma for the stored factor X, in exact rational arithmetic. The shape
-    matrix the factorized form hands to its Estimate differs from it (Loewner order, relative) by
-    less than the conversion bound gamma_p k (2 + k), k the Skeel condition number of X, from
-    well-conditioned to nearly collinear regressors."""
+def test_factorized_set_answers_from_its_factor_against_exact_arithmetic():
+    """Reference: exact rational arithmetic on the stored X, z, sigma. From well-conditioned to
+    nearly collinear regressors (cond(X)^2 up to ~1e14), the factorized Estimate's set
+    {|X theta - z|^2 <= sigma (1 + inflation)} classifies points at Mahalanobis^2 1 -+ 1e-6 as
+    exact arithmetic does, and its centre is the exact X^-1 z to a few units of roundoff in X's
+    coordinates (|X c - z|^2 / sigma <= 1e-20: the centre is a point of the set, a rounding away
+    from its middle)."""
     rng = np.random.default_rng(3)
     for trial in range(12):
         p = int(rng.integers(2, 6))
         Q, _ = np.linalg.qr(rng.normal(size=(p, p)))
-        W = (rng.normal(size=(60, p)) * np.logspace(0, -rng.uniform(0, 6), p)) @ Q.T
+        W = (rng.normal(size=(60, p)) * np.logspace(0, -rng.uniform(0, 7), p)) @ Q.T
         theta = rng.normal(size=p)
         y = W @ theta + rng.uniform(-0.01, 0.01, 60)
-        obe = OBE(p, shape0=100.0 * p)
-        obe.fit(W, y, 0.01)
-        S, bound = obe._shape_and_error()
-        X = [[Fraction(v) for v in row] for row in obe._X]
-        M = [[sum(X[k][i] * X[k][j] for k in range(p)) / Fraction(obe.sigma) for j in range(p)] for i in range(p)]
-        SM = np.array([[float(sum(Fraction(S[i, k]) * M[k][j] for k in range(p))) for j in range(p)]
-                       for i in range(p)])
-        err = float(np.abs(np.linalg.eigvals(SM) - 1.0).max())  # S M / sigma = I exactly if S were exact
-        assert err <= bound, (trial, err, bound)
+        E = OBE(p, shape0=100.0 * p).fit(W, y, 0.01).set
+        X = [[Fraction(v) for v in row] for row in E.X]
+        z = [Fraction(v) for v in E.z]
+
+        def exact(x, X=X, z=z, p=p, sigma=Fraction(E.sigma)):
+            t = [Fraction(v) for v in x]
+            return sum((sum(X[i][j] * t[j] for j in range(p)) - z[i]) ** 2 for i in range(p)) / sigma
+
+        assert float(exact(E.center)) <= 1e-20, trial
+        u = rng.normal(size=p)
+        L = E.factor
+        for level in (1.0 - 1e-6, 1.0 + 1e-6):  # points just inside and just outside, along L u
+            x = E.center + np.sqrt(level) * (L @ u) / np.linalg.norm(u)
+            assert E.contains(x, rtol=0.0) == (exact(x) <= 1), (trial, level, float(exact(x)))
 
 
 @pytest.mark.parametrize("form", ["standard", "factorized"])

@@ -448,23 +448,6 @@ def back_substitute(X, z, out):
         out[a] = s / X[a, a]
 
 
-@njit(cache=True)
-def upper_inverse(X):
-    """X^-1 for upper-triangular X, by back substitution on the unit vectors (upper triangular).
-    (scipy.linalg.solve_triangular with a matrix right-hand side took ~15 ms for 9 x 9 on the
-    shared project machine, OpenBLAS threads contending; this takes microseconds.)"""
-    n = X.shape[0]
-    Xi = np.zeros((n, n))
-    for col in range(n):
-        Xi[col, col] = 1.0 / X[col, col]
-        for a in range(col - 1, -1, -1):
-            s = 0.0
-            for b in range(a + 1, col + 1):
-                s -= X[a, b] * Xi[b, col]
-            Xi[a, col] = s / X[a, a]
-    return Xi
-
-
 @njit(cache=True, fastmath=FASTMATH)
 def run_factorized(X, z, c, state, W, Y, E, crit, selective, alpha_max, stop_on_outlier, k0, record_every,
                    log_ball, hist_idx, hist_c, hist_lv, hist_S, out_idx, out_res, counts):

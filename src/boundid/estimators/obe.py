@@ -24,8 +24,10 @@ the same recursion:
 * ``form="factorized"``: the square-root information form of [LesecqBarraud] ([H4Paper]
   eqs. 33-35, [refs §QR]): M = X^T X with X upper triangular, z = X c, each update a QR
   of the appended row by Givens rotations. M' = alpha M + lambda w w^T adds, never subtracts,
-  so it stays positive definite and accurate; it keeps the same watch (sigma, definiteness, and
-  the accuracy of the shape matrix formed from X for the Estimate).
+  so it stays positive definite and accurate; it keeps the same watch (sigma, definiteness), and
+  its Estimate holds the set in that form (:class:`~boundid.sets.RootInformationEllipsoid`:
+  membership, support and intervals by triangular solves with X), so no shape matrix sigma X^-1
+  X^-T is formed and the set stays exact where that matrix cannot be held in double precision.
 
 The guarantee: if theta is in E0 and every |e_k| <= e_max_k, theta is in every ellipsoid of the
 recursion, up to CONTAINMENT_RTOL: (theta - c)^T S^-1 (theta - c) <= 1 + 1e-9, the rounding
@@ -48,13 +50,13 @@ from typing import Literal
 
 import numpy as np
 
-from boundid._validation import as_bounds, as_float_array, as_regression
+from boundid._validation import as_bounds, as_regression
 from boundid.errors import InfeasibleDataError, InputError, SolverError
 from boundid.estimators import _obe_kernels as K
 from boundid.estimators.estimate import Estimate, History
 from boundid.estimators.method import Method, Problem, Style, option
 from boundid.estimators.protocol import RecursiveEstimator, ellipsoid_prior
-from boundid.sets.ellipsoid import Ellipsoid, log_unit_ball_volume
+from boundid.sets.ellipsoid import Ellipsoid, RootInformationEllipsoid, log_unit_ball_volume
 
 FORMS = ("standard", "factorized")
 # A guaranteed set promises (theta - c)^T S^-1 (theta - c) <= 1 + CONTAINMENT_RTOL for the truth
@@ -120,10 +122,11 @@ class OBE(RecursiveEstimator):
     criterion, form, selective, sigma and n_breakdowns (0: an estimate is only built from a sound
     state). Building the Estimate raises SolverError when the
     recursion proved its state corrupt: M^-1 indefinite on some row (w^T M^-1 w <= 0, the row then
-    skipped, or a diagonal entry <= 0; counted in ``n_breakdowns``), sigma outside (0, 1], or a set
-    that cannot be written as a positive definite shape matrix.
+    skipped, or a diagonal entry <= 0; counted in ``n_breakdowns``), sigma outside (0, 1], or (standard
+    form) an M^-1 that is not positive definite.
     The factorized form keeps sigma separately instead of normalising it to 1 ([H4Paper] eq. 35
-    divides [X, z] by sqrt(sigma)); the ellipsoid is the same.
+    divides [X, z] by sqrt(sigma)); the ellipsoid is the same. Its Estimate's set is a
+    :class:`~boundid.sets.RootInformationEllipsoid` {|X theta - z|^2 <= sigma (1 + inflation)}.
     """
 
     def __init__(self, p: int, *, prior=None, center0=None, shape0=None, criterion: str = "volume",
@@ -230,24 +233,24 @@ class OBE(RecursiveEstimator):
     def sigma(self) -> float:
         return float(self._state[K.S_SIGMA])
 
-    def _shape_and_error(self) -> tuple[np.ndarray, float]:
-        """The shape matrix sigma M^-1 (p, p), and the relative error (Loewner order, first order)
-        of forming it: 0 for the standard form (it stores M^-1); for the factorized form, whose
-        X^-1 comes from back substitution with X X^-1 = I + F, |F| <= gamma_p |X| |X^-1| (Higham,
-        Accuracy and Stability of Numerical Algorithms, §8.1), and whose product X^-1 X^-T rounds
-        by gamma_p |X^-1| |X^-T|, it is gamma_p k (2 + k) with k = || |X| |X^-1| ||_2 the Skeel
-        condition number of X (~1 unless the regressors are nearly collinear)."""
-        if self.form == "standard":
-            return self.sigma * self._P, 0.0
-        Xi = K.upper_inverse(self._X)
-        S = self.sigma * (Xi @ Xi.T)
-        gamma = self.p * K.UNIT_ROUNDOFF / (1.0 - self.p * K.UNIT_ROUNDOFF)
-        skeel = np.linalg.norm(np.abs(self._X) @ np.abs(Xi), 2)
-        return 0.5 * (S + S.T), gamma * skeel * (2.0 + skeel)
+    def _set(self, level: float = 1.0) -> Ellipsoid:
+        """The current set with its level sigma multiplied by ``level`` (the inflation): the factorized
+        form in its own square-root information form, {|X theta - z|^2 <= sigma level} (no inverse is
+        formed, so it holds whatever the condition of M); the standard form from its M^-1."""
+        if self.form == "factorized":
+            return RootInformationEllipsoid(self._X, self._z, self.sigma * level)
+        try:
+            return Ellipsoid(self.center, (self.sigma * level) * self._P)
+        except InputError as exc:
+            raise SolverError(
+                f"the standard-form OBE lost positive definiteness after {self.n_samples} samples: M^-1 is kept by "
+                "subtraction and rounding made it indefinite (ill-conditioned regressors, or a prior far wider "
+                f"than the bounds). Use form='factorized'. ({exc})") from None
 
     def shape(self) -> np.ndarray:
-        """The current shape matrix sigma M^-1 (p, p)."""
-        return self._shape_and_error()[0]
+        """The current shape matrix sigma M^-1 (p, p) (formed from X for the factorized form: rounded
+        where M is ill-conditioned; :meth:`ellipsoid` does not need it)."""
+        return self._set().shape
 
     def information(self) -> np.ndarray:
         """The current information matrix M (p, p), E = {(theta - c)^T M (theta - c) <= sigma}."""
@@ -257,36 +260,13 @@ class OBE(RecursiveEstimator):
 
     def mahalanobis2(self, points) -> np.ndarray:
         """(theta - c)^T M (theta - c) / sigma for each row of ``points`` (m, p) (<= 1 inside), in the
-        estimator's own representation: |X theta - z|^2 / sigma for the factorized form (no
-        inverse, so it stays accurate when the shape matrix of :meth:`estimate` cannot be formed
-        accurately), the Cholesky factor of M^-1 for the standard form."""
-        T = np.atleast_2d(as_float_array(points, "points"))
-        if T.ndim != 2 or T.shape[1] != self.p:
-            raise InputError(f"points must have {self.p} columns, got shape {T.shape}.")
-        if self.form == "factorized":
-            R = T @ self._X.T - self._z
-        else:
-            L = np.linalg.cholesky(self._P)
-            R = np.linalg.solve(L, (T - self.center).T).T
-        return np.sum(R * R, axis=1) / self.sigma
-
-    def _ellipsoid(self, S: np.ndarray) -> Ellipsoid:
-        try:
-            return Ellipsoid(self.center, S)
-        except InputError as exc:
-            if self.form == "standard":
-                why = (f"the standard-form OBE lost positive definiteness after {self.n_samples} samples: M^-1 is "
-                       "kept by subtraction and rounding made it indefinite (ill-conditioned regressors, or a prior "
-                       "far wider than the bounds). Use form='factorized'.")
-            else:
-                why = (f"the factorized OBE's set after {self.n_samples} samples cannot be written as a positive "
-                       "definite shape matrix in double precision (its axes differ by ~8 orders of magnitude or more: "
-                       "a prior far wider than what the data have determined so far, or nearly collinear regressors). "
-                       "Fit more rows, or start from a tighter prior.")
-            raise SolverError(f"{why} ({exc})") from None
+        estimator's own representation: |X theta - z|^2 / sigma for the factorized form, the Cholesky
+        factor of sigma M^-1 for the standard form."""
+        return self._set().mahalanobis2(points)
 
     def ellipsoid(self) -> Ellipsoid:
-        return self._ellipsoid(self.shape())
+        """The current set, without the rounding inflation of :meth:`estimate`."""
+        return self._set()
 
     def _check_state(self) -> None:
         """Raise SolverError if the recursion proved its own state corrupt: then there is no set to
@@ -312,17 +292,13 @@ class OBE(RecursiveEstimator):
                    "Scale the columns of W and y (and the prior) to order 1.")
             )
 
-    def _unverified_reason(self, bound: float, conversion: float) -> str | None:
+    def _unverified_reason(self, bound: float) -> str | None:
         """Why the estimator cannot vouch for its set (None: it can)."""
         if bound <= VOUCH_MAX:
             return None
         st = self._state
         head = (f"the rounding error of the set may reach {bound:.2g} in Mahalanobis^2, above the "
                 f"{VOUCH_MAX:g} the estimator can absorb into its set")
-        if conversion > 0.5 * bound:
-            return (f"{head}; forming the shape matrix from X loses it (Skeel condition number of X "
-                    f"{np.sqrt(conversion / (self.p * K.UNIT_ROUNDOFF)):.3g}: nearly collinear regressors). The "
-                    "estimator's own set is intact: OBE.mahalanobis2 tests points against it")
         if self.form == "standard":
             rho, omega = st[K.S_WORST_RHO], st[K.S_WORST_OMEGA]
             return (f"{head}; the largest share comes from row {int(st[K.S_WORST_ROW])}, whose rank-one downdate "
@@ -337,11 +313,10 @@ class OBE(RecursiveEstimator):
         """The current set as an :class:`Estimate`: kind "guaranteed" when the estimator can vouch for
         it, else "unverified" with ``unverified_reason``."""
         self._check_state()
-        S, conversion = self._shape_and_error()
-        bound = float(self._state[K.S_BOUND]) + conversion
-        reason = self._unverified_reason(bound, conversion)
+        bound = float(self._state[K.S_BOUND])
+        reason = self._unverified_reason(bound)
         inflation = INFLATION_FACTOR * bound if reason is None else 0.0
-        E = self._ellipsoid(S * (1.0 + inflation))
+        E = self._set(1.0 + inflation)
         if len(self._hist) > 1:  # merge once; later estimates reuse the merged arrays
             idx, cs, lvs, Ss = zip(*self._hist, strict=True)
             self._hist = [(np.concatenate(idx), np.concatenate(cs), np.concatenate(lvs),

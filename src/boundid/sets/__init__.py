@@ -6,7 +6,7 @@ names are loaded from here on first use.
 
 from boundid.sets.box import Box
 from boundid.sets.convex import ConvexSet, support_values
-from boundid.sets.ellipsoid import Ellipsoid, log_unit_ball_volume
+from boundid.sets.ellipsoid import Ellipsoid, RootInformationEllipsoid, log_unit_ball_volume
 from boundid.sets.parallelotope import Parallelotope
 from boundid.sets.polytope import Bounds, Consistency, Polytope
 from boundid.sets.vertex_polytope import VertexPolytope, shadow
@@ -15,8 +15,8 @@ from boundid.sets.zonotope import Zonotope
 _SDP = ("SDPResult", "VolumeBracket", "enclosing_ellipsoid", "inner_ellipsoid", "john_outer", "min_volume_bracket",
         "outer_ellipsoid", "polytope_ellipsoids", "step_ellipsoid")
 
-__all__ = ["Ellipsoid", "log_unit_ball_volume", "Bounds", "Consistency", "Polytope", "Box", "ConvexSet",
-           "Parallelotope", "VertexPolytope", "Zonotope", "shadow", "support_values", *_SDP]
+__all__ = ["Ellipsoid", "RootInformationEllipsoid", "log_unit_ball_volume", "Bounds", "Consistency", "Polytope", "Box",
+           "ConvexSet", "Parallelotope", "VertexPolytope", "Zonotope", "shadow", "support_values", *_SDP]
 
 
 def __getattr__(name: str):

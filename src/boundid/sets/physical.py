@@ -725,7 +725,7 @@ class ConstrainedEllipsoid:
     def _problem(self):
         """(ConicProblem, map v -> theta (A, a): theta = a + A v, map v -> x, variables)."""
         E, cons = self.ellipsoid, self.constraints
-        Lc = np.linalg.cholesky(E.shape)
+        Lc = E.factor
         p = E.dim
         if not cons.is_lifted:
             Kinv = np.eye(p) if cons.lift is None else np.linalg.inv(cons.lift)
@@ -735,7 +735,7 @@ class ConstrainedEllipsoid:
             prob.add_constraints(vcons)
             return prob, Lc, E.center, (Kinv @ E.center, Kinv @ Lc), vcons
         n = cons.dim
-        half = np.sqrt(np.diag(E.shape))
+        half = np.linalg.norm(Lc, axis=1)
         V = _variables(cons, E.center, half)
         Linv = np.linalg.inv(Lc)
         A = half[:, None] * V.T                                         # theta = c + half * (T v + t0)
@@ -765,7 +765,7 @@ class ConstrainedEllipsoid:
                               f"units, tolerance {PRIMAL_TOL:g}); the conic solve was inaccurate.")
         if np.all(np.isfinite(r.dual)):
             proven = np.maximum(-(r.dual) + D @ a, att)
-            scale = np.sqrt(np.einsum("ij,jk,ik->i", D, E.shape, D))
+            scale = np.linalg.norm(D @ E.factor, axis=1)
             gap = float(np.max((proven - att) / scale))
             if gap > GAP_TOL:
                 raise SolverError(f"ellipsoid ∩ physical set: proven and attained supports differ by {gap:.3g} of "
@@ -823,10 +823,10 @@ class ConstrainedEllipsoid:
         prob, A, a, _, vcons = self._problem()
         n = A.shape[1]
         v, t = cp.Variable(n), cp.Variable()
-        Lc = np.linalg.cholesky(E.shape)
+        Lc = E.factor
         Linv = np.linalg.inv(Lc)
         S = self.selector
-        half = np.sqrt(np.diag(S @ E.shape @ S.T))
+        half = np.linalg.norm(S @ Lc, axis=1)
         parts = [cp.SOC(t, Linv @ (A @ v + a - E.center)), ((S @ A) @ v + S @ a - x) / half == 0]
         if vcons.linear.m:
             nrm = np.linalg.norm(vcons.linear.A, axis=1)

@@ -770,7 +770,7 @@ def step_ellipsoid(E: Ellipsoid, w, y: float, e_max: float, allow_fallback: bool
     e = float(as_float_array(e_max, "e_max"))
     if not (np.isfinite(e) and e > 0):
         raise InputError(f"e_max must be finite and > 0, got {e}.")
-    L = np.linalg.cholesky(E.shape)
+    L = E.factor
     g = L.T @ w
     s = float(np.linalg.norm(g))
     eps = y - float(w @ E.center)
@@ -795,7 +795,7 @@ def step_ellipsoid(E: Ellipsoid, w, y: float, e_max: float, allow_fallback: bool
     # taken in x round with a relative error of about n eps cond(E), which an ellipsoid through
     # the cut's rim (an exact certificate) would not absorb at cond(E) = 1e8: the squared radius
     # is enlarged by 8 n eps cond(E) (1e-14 for a round E, 2e-6 at n = 14 and cond 1e8)
-    grow = 1.0 + 8 * n * np.finfo(float).eps * np.linalg.cond(E.shape)
+    grow = 1.0 + 8 * n * np.finfo(float).eps * np.linalg.cond(L) ** 2
     ell = Ellipsoid(E.center + L @ cz, grow * (L @ Sz @ L.T))
     return SDPResult(ell, status, time.perf_counter() - t0, np.zeros(0, dtype=int), solver,
                      {"certificate_residual": mu, "rounding_margin": grow - 1.0,
