@@ -57,6 +57,20 @@ _ARCHIVE = 2048
 _BLAS = ThreadpoolController()
 
 
+class _QuietHighs(highspy.Highs):
+    """``highspy.Highs`` that never writes to the console, not even its banner.
+
+    highspy 1.16's constructor builds the solver, then calls :meth:`enableCallbacks`, whose
+    ``setCallback`` prints HiGHS's banner ("Running HiGHS 1.16.0 ...: Copyright ...", two lines,
+    once per process) on the C stdout while ``output_flag`` still has its default, True: before
+    any option can be set. This turns ``output_flag`` off at that hook, before the banner (older
+    highspy, whose constructor does not call the hook, prints nothing before the first run)."""
+
+    def enableCallbacks(self):
+        self.setOptionValue("output_flag", False)
+        super().enableCallbacks()
+
+
 def one_blas_thread(f):
     """Run ``f`` with BLAS limited to one thread. The LP loop alternates the simplex with many
     small BLAS calls; idle OpenBLAS threads spin between them and take the core the simplex needs
@@ -555,7 +569,7 @@ class WorkingSetLP:
         or unbounded."""
         self.n_highs += 1
         if self._h is None:
-            self._h = h = highspy.Highs()
+            self._h = h = _QuietHighs()
             for name, val in (("output_flag", False), ("presolve", "off"), ("solver", "simplex"),
                               ("primal_feasibility_tolerance", _FTOL), ("dual_feasibility_tolerance", _DTOL),
                               ("threads", 1)):
