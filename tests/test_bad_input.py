@@ -2,18 +2,24 @@
 are never half-written; a run that fails after computing still writes its page.
 
 Independent references: the cases of the bad-input lists "Output escapes its folder" and "Raw
-tracebacks for ordinary bad input" (each must print exactly one ``boundid: error:`` line, exit 2,
-and compute nothing -- the regression builder is replaced by one that fails the test); the bytes
-of the previous report on disk before a SIGKILL mid-write; the failures the run itself raised.
+tracebacks for ordinary bad input", and the numbers of issue 28 item 5 that were not checked when
+the file was read (each must print exactly one ``boundid: error:`` line, exit 2 within 10 s, print
+nothing on stdout and compute nothing -- the simulation and the regression builder are replaced by
+ones that fail the test); every number the parser reads, each as NaN and +-inf; the bytes of the
+previous report on disk before a SIGKILL mid-write; the failures the run itself raised.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
 import re
 import signal
 import subprocess
 import sys
+import time
+import typing
 from pathlib import Path
 
 import numpy as np
@@ -21,11 +27,15 @@ import pandas as pd
 import pytest
 
 from boundid.cli import main
-from boundid.errors import ResourceError, SolverError, StudyError
+from boundid.errors import InputError, ResourceError, SolverError, StudyError
+from boundid.estimators.kalman import KalmanEstimator
+from boundid.estimators.obe import OBE
+from boundid.estimators.registry import METHODS
+from boundid.estimators.rls import RLS
 from boundid.experiments.recording import Recording, write_recording
 from boundid.report import output
 from boundid.sets import Polytope
-from boundid.studies import runner
+from boundid.studies import data, runner
 from boundid.studies.config import load_study
 
 WLS_ONLY = """
@@ -81,6 +91,8 @@ options = { fast_period = 1.0, blah = 3 }
 method = "wls"
 regressions = ["inverse_dynamic"]
 """
+
+SCENARIO = '\n[[campaign.scenarios]]\nname = "a"\n{}\n'
 
 
 def _study(tmp: Path, text: str, name: str = "study.toml") -> str:
@@ -237,6 +249,61 @@ CASES = [
                                                           r"forgetting \(number > 0, <= 1, default 1.0\)"),
     ("obe without e_max", lambda t: _run(_edit(t, 'method = "rls"', 'method = "obe"'), out=str(t)),
      r"estimators\[1\]\.e_max: is required"),
+    # Numbers not checked when the file was read (issue 28, item 5)
+    ("coulomb_width_rad_s = nan (hung the run)",
+     lambda t: _run(_edit(t, "duration_s = 1.0", "duration_s = 1.0\ncoulomb_width_rad_s = nan"), out=str(t)),
+     r"experiment\.coulomb_width_rad_s: must be a finite number >= 0, got nan\.$"),
+    ("duration_s = nan", lambda t: _run(_edit(t, "duration_s = 1.0", "duration_s = nan"), out=str(t)),
+     r"experiment\.duration_s: must be a finite number > 0, got nan\.$"),
+    ("duration_s = inf", lambda t: _run(_edit(t, "duration_s = 1.0", "duration_s = inf"), out=str(t)),
+     r"experiment\.duration_s: must be a finite number > 0, got inf\.$"),
+    ("sample_period_s = nan", lambda t: _run(_edit(t, "duration_s = 1.0", "duration_s = 1.0\nsample_period_s = nan"),
+                                             out=str(t)), r"experiment\.sample_period_s: must be a finite number > 0"),
+    ("sample_period_s = inf", lambda t: _run(_edit(t, "duration_s = 1.0", "duration_s = 1.0\nsample_period_s = inf"),
+                                             out=str(t)), r"experiment\.sample_period_s: must be a finite number > 0"),
+    ("absolute_range = nan (no [exact] regression, exit 0)",
+     lambda t: _run(_edit(t, "absolute_range = 100.0", "absolute_range = nan"), out=str(t)),
+     r"prior\.absolute_range: must be a finite number > 0, got nan\.$"),
+    ("absolute_range = inf", lambda t: _run(_edit(t, "absolute_range = 100.0", "absolute_range = inf"), out=str(t)),
+     r"prior\.absolute_range: must be a finite number > 0, got inf\.$"),
+    ("kalman R = nan", lambda t: _run(_edit(t, 'method = "rls"', 'method = "kalman"\nR = nan'), out=str(t)),
+     r"estimators\[1\]\.R: must be a finite number > 0, got nan\.$"),
+    ("rls shape0 = inf", lambda t: _run(_edit(t, 'method = "rls"', 'method = "rls"\nshape0 = inf'), out=str(t)),
+     r"estimators\[1\]\.shape0: must be a finite number >= 1e-150, <= 1e\+150, got inf\.$"),
+    ("rls shape0 = 1e-300", lambda t: _run(_edit(t, 'method = "rls"', 'method = "rls"\nshape0 = 1e-300'),
+                                           out=str(t)), r"estimators\[1\]\.shape0: must be >= 1e-150, <= 1e\+150"),
+    ("obe e_max = inf", lambda t: _run(_edit(t, 'method = "rls"', 'method = "obe"\ne_max = inf'), out=str(t)),
+     r"estimators\[1\]\.e_max: must be a finite number > 0, got inf\.$"),
+    ("exact e_max = nan", lambda t: _run(_study(t, BASE + '[exact]\nregression = "filtered_dynamic"\ne_max = nan\n'),
+                                         out=str(t)), r"exact\.e_max: must be a finite number > 0, got nan\.$"),
+    ("robot option m1 = nan", lambda t: _run(_edit(t, 'model = "direct_drive"',
+                                                   'model = "direct_drive"\noptions = {m1 = nan}'), out=str(t)),
+     r"robot\.options\.m1: must be finite, not NaN or inf"),
+    ("closed loop: experiment option fast_period = inf", lambda t: _run(_study(t, H4.replace(
+        "options = { fast_period = 1.0, blah = 3 }", "options = { fast_period = inf }")), out=str(t)),
+     r"experiment\.options\.fast_period: must be finite, not NaN or inf"),
+    ("prior box excludes the truth (was: the data contradict e_max)",
+     lambda t: _run(_study(t, BASE.replace("absolute_range = 100.0", "absolute_range = 10.0")
+                           + '[exact]\nregression = "filtered_dynamic"\ne_max = 6.0\n'), out=str(t)),
+     r": \[prior\]: the prior box excludes the true parameters of the simulated robot \(th4 = 38\.47 N m outside "
+     r"\[-10, 10\]\), .* widen the box: raise prior\.absolute_range \(now 10\), or change prior\.center "
+     r"\(now 'zero'\)\.$"),
+    ("prior box too small for floating point",
+     lambda t: _run(_edit(t, "absolute_range = 100.0", "absolute_range = 1e-80"), out=str(t)),
+     r"\[prior\]: the prior box's half-widths must lie between 3\.33e-76 and 3\.33e\+74 .* th1 has 1e-80 kg m\^2"),
+    ("scenario torque level = nan (campaign)", lambda t: ["campaign", _study(t, BASE + SCENARIO.format(
+        "torque = { kind = 'uniform', level = nan }")), "--out", str(t)],
+     r"campaign\.scenarios\[0\]\.torque\.level: must be a finite number >= 0, got nan\.$"),
+    ("scenario structural_error = inf (run)", lambda t: _run(_study(t, BASE + SCENARIO.format(
+        "structural_error = inf")), out=str(t)),
+     r"campaign\.scenarios\[0\]\.structural_error: must be a finite number >= 0, got inf\.$"),
+    ("unknown scenario key (run)", lambda t: _run(_study(t, BASE + SCENARIO.format("torque_noise = 1.0")), out=str(t)),
+     r"campaign\.scenarios\[0\]\.torque_noise: unknown key; the keys read here are description, "
+     r"encoder_counts_per_rev, name, structural_error, torque\.$"),
+    ("unknown scenario key (campaign)", lambda t: ["campaign", _study(t, BASE + SCENARIO.format("torque_noise = 1.0")),
+                                                   "--out", str(t)],
+     r"campaign\.scenarios\[0\]\.torque_noise: unknown key; the keys read here are description, "
+     r"encoder_counts_per_rev, name, structural_error, torque\.$"),
 ]
 
 
@@ -253,16 +320,160 @@ def _must_not_compute(*args, **kwargs):
 
 @pytest.mark.parametrize("build, match", [c[1:] for c in CASES], ids=[c[0] for c in CASES])
 def test_bad_input_is_one_line_and_exit_2(build, match, tmp_path, capsys, monkeypatch):
-    """Every listed case exits 2 with exactly one ``boundid: error:`` line naming the problem, and
-    nothing is computed (the regression builder would fail the test)."""
-    monkeypatch.setattr(runner, "build_regressions", _must_not_compute)
+    """Every listed case exits 2 within 10 s with exactly one ``boundid: error:`` line naming the
+    problem and nothing on stdout, and nothing is computed (the simulation and the regression
+    builder would fail the test)."""
+    for module, name in ((data, "simulate_open_loop"), (data, "closed_loop_data"), (runner, "build_regressions")):
+        monkeypatch.setattr(module, name, _must_not_compute)
     argv = build(tmp_path)
     capsys.readouterr()
+    t0 = time.monotonic()
     assert _cli(argv) == 2
-    err = capsys.readouterr().err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("boundid: error: "), err
+    assert time.monotonic() - t0 < 10.0
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("boundid: error: "), captured.err
     assert re.search(match, lines[0]), lines[0]
+    assert captured.out == ""
+
+
+def test_run_and_campaign_share_the_scenario_schema(tmp_path, capsys):
+    """``boundid run`` reads the [campaign] table with the parser of ``boundid campaign``: the same
+    unknown scenario key gives both commands the same line."""
+    study = _study(tmp_path, BASE + SCENARIO.format("level = 0.5"))
+    lines = []
+    for argv in (_run(study, out=str(tmp_path)), ["campaign", study, "--out", str(tmp_path), "--quiet"]):
+        capsys.readouterr()
+        assert _cli(argv) == 2
+        lines.append(capsys.readouterr().err)
+    assert lines[0] == lines[1] == (f"boundid: error: {study}: campaign.scenarios[0].level: unknown key; the keys "
+                                    "read here are description, encoder_counts_per_rev, name, structural_error, "
+                                    "torque.\n")
+
+
+def _toml(value) -> str:
+    """A value as TOML text: tables inline, floats with nan and inf spelled as TOML spells them."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float) and not math.isfinite(value):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    if isinstance(value, int | float):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return "{ " + ", ".join(f"{k} = {_toml(v)}" for k, v in value.items()) + " }"
+
+
+def _place(doc: dict, path: str, value) -> None:
+    """Set the dotted ``path`` of ``doc`` ("[]": the first table of an array of tables) to ``value``."""
+    *tables, key = path.split(".")
+    for name in tables:
+        doc = doc.setdefault(name[:-2], [{}])[0] if name.endswith("[]") else doc.setdefault(name, {})
+    doc[key] = value
+
+
+def _every_number(keys) -> list[tuple[dict, str, object]]:
+    """(settings, key, default) of every number a study file can hold: the float keys of the
+    sections and [[estimators]] tables, and the float (and list of floats) options of every
+    robot and experiment, each with the choices under which the parser reads it."""
+    out = []
+    for k in keys:
+        when = {choice_key: sorted(values)[0] for choice_key, values in k.when.items()}
+        if k.kind == "number":
+            out.append((when, k.path, 1.0))
+        for case, options in (k.options_by or {"": k.options or {}}).items():
+            choice = dict(when)
+            if case:  # 'model = "h4"'
+                name, value = case.split(" = ")
+                choice[k.path.rsplit(".", 1)[0] + "." + name] = json.loads(value)
+            out += [(choice, f"{k.path}.{o}", d) for o, d in options.items()
+                    if isinstance(d, float) or (isinstance(d, tuple) and d and isinstance(d[0], float))]
+    return out
+
+
+def test_every_number_refuses_nan_and_inf(tmp_path):
+    """Every number the schema knows, enumerated from the parser itself (the study-file keys
+    boundid.docs finds by probing it, with the options of every robot, experiment and estimator),
+    is refused as NaN, inf or -inf when the file is read, naming its key: a new key cannot slip
+    through. Cross-check: every float field of every registered method's options dataclass is
+    among them."""
+    from boundid.docs import study_keys
+
+    numbers = _every_number(study_keys())
+    paths = {path for _, path, _ in numbers}
+    float_options = {f"estimators[].{f.name}" for m in METHODS.values() for f in dataclasses.fields(m.options)
+                     if typing.get_type_hints(m.options)[f.name] in (float, float | None)}
+    assert float_options and float_options <= paths
+    assert {"experiment.coulomb_width_rad_s", "prior.absolute_range", "robot.options.m1",
+            "experiment.options.fast_period", "campaign.scenarios[].torque.level"} <= paths
+    slipped = []
+    for settings, path, default in numbers:
+        for bad in (math.nan, math.inf, -math.inf):
+            doc = {"regressions": ["filtered_dynamic"], "study": {"name": "dd", "title": "t"},
+                   "robot": {"model": "direct_drive"}, "experiment": {"source": "simulate", "duration_s": 1.0},
+                   "prior": {"absolute_range": 100.0},
+                   "estimators": [{"method": "wls", "regressions": ["filtered_dynamic"]}],
+                   "campaign": {"scenarios": [{"name": "a"}]}}
+            for key, choice in settings.items():
+                _place(doc, key, choice)
+            if METHODS[doc["estimators"][0]["method"]].needs_bound:
+                doc["estimators"][0]["e_max"] = 1.0
+            _place(doc, path, [bad] * len(default) if isinstance(default, tuple) else bad)
+            study = tmp_path / "study.toml"
+            study.write_text("\n".join(f"{k} = {_toml(v)}" for k, v in doc.items()) + "\n")
+            key = re.escape(path.replace("[]", "[0]"))
+            try:
+                load_study(study)
+            except StudyError as exc:
+                if re.search(rf"{re.escape(str(study))}: {key}: must be (a )?finite", str(exc)):
+                    continue
+                slipped.append(f"{path} = {bad}: {exc}")
+            else:
+                slipped.append(f"{path} = {bad}: accepted")
+    assert not slipped, "\n".join(slipped)
+
+
+def test_entry_point_refuses_nan_at_once(tmp_path):
+    """In a real process, the NaN Coulomb width that used to hang the simulation (> 420 s) ends at
+    once: one line, exit 2, nothing on stdout."""
+    study = _edit(tmp_path, "duration_s = 1.0", "duration_s = 1.0\ncoulomb_width_rad_s = nan")
+    proc = subprocess.run([sys.executable, "-m", "boundid.cli", "run", study, "--out", str(tmp_path)],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.splitlines() == [f"boundid: error: {study}: experiment.coulomb_width_rad_s: must be a finite "
+                                        "number >= 0, got nan."]
+
+
+@pytest.mark.parametrize("estimator, shape0", [(OBE, 1e-300), (OBE, 1e200), (RLS, 1e-300), (KalmanEstimator, 1e200)])
+def test_prior_shape_out_of_floating_point_is_refused(estimator, shape0):
+    """OBE(3, shape0=1e-300) divided by zero (the product of two squared semi-axes underflows);
+    every ellipsoidal prior is now refused outside 1e-150..1e150 with one sentence naming shape0."""
+    with pytest.raises(InputError) as err:
+        estimator(3, shape0=shape0)
+    message = str(err.value)
+    assert message.startswith("shape0 (the prior's squared semi-axes, in parameter units squared) must lie between "
+                              "1e-150 and 1e+150, got eigenvalues from ")
+    assert message.count(". ") == 0 and message.endswith(".") and "\n" not in message
+    for limit in (1e-150, 1e150):  # the limits themselves are accepted
+        assert estimator(3, shape0=limit).p == 3
+
+
+def test_summary_md_escapes_what_it_quotes(tmp_path):
+    """A study title and description holding HTML: the page escapes them, and so does summary.md
+    (a Markdown renderer passes raw HTML through), while the text still reads the same."""
+    title = "<script>alert(1)</script> & co"
+    text = WLS_ONLY.replace('title = "Direct-drive arm, 1 s"',
+                            f'title = "{title}"\ndescription = "<img src=x onerror=alert(2)>"')
+    out = tmp_path / "out"
+    assert _cli(["run", _study(tmp_path, text), "--out", str(out), "--quiet"]) == 0
+    md = (out / "dd" / "summary.md").read_text(encoding="utf-8")
+    page = (out / "dd" / "index.html").read_text(encoding="utf-8")
+    for raw in ("<script", "<img"):
+        assert raw not in md and raw not in page
+    assert md.startswith("# &lt;script&gt;alert(1)&lt;/script&gt; &amp; co\n")
+    assert "&lt;img src=x onerror=alert(2)&gt;" in md
 
 
 def test_entry_point_prints_no_traceback(tmp_path):

@@ -377,7 +377,7 @@ def test_page_writes_figures_tables_and_summary(study_page):
     assert "WLS lo" in csv.columns
     assert "\\begin{tabular}" in (d / "tables" / "summary.tex").read_text()
     md = (d / "summary.md").read_text()
-    for s in ("# Toy study <1>", "## Parameters", "**Table 1.** Intervals", "**Table 2.** Summary",
+    for s in ("# Toy study &lt;1&gt;", "## Parameters", "**Table 1.** Intervals", "**Table 2.** Summary",
               "![Figure 1. Convergence](figures/convergence.png)", "| parameter"):
         assert s in md
 

@@ -1,5 +1,6 @@
 """Study files: the shipped ones parse; mistakes are reported with file, key and allowed values."""
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +11,7 @@ from boundid.estimators.registry import METHODS
 from boundid.experiments.recording import Recording, read_recording, write_recording
 from boundid.studies.config import REGRESSIONS, load_study
 from boundid.studies.registry import make_robot
+from boundid.studies.schema import Section
 
 STUDIES = sorted((Path(__file__).parents[1] / "studies").glob("*.toml"))
 
@@ -130,18 +132,62 @@ def test_options_tables_are_typed_by_their_defaults(tmp_path):
 
 def test_estimator_options_are_checked_when_read(tmp_path):
     """Ranges the estimators would refuse only when run are refused when the study is read."""
-    for option, match in [("forgetting = 1.5", r"forgetting: must be <= 1.0"), ("shape0 = 0", r"shape0: must be > 0.0"),
+    for option, match in [("forgetting = 1.5", r"forgetting: must be > 0, <= 1, got 1\.5\.$"),
+                          ("shape0 = 0", r"shape0: must be >= 1e-150, <= 1e\+150, got 0\.0\.$"),
+                          ("shape0 = 1e200", r"shape0: must be >= 1e-150, <= 1e\+150, got 1e\+200\.$"),
+                          ("center0 = -inf", r"center0: must be a finite number, got -inf\.$"),
                           ('shape0 = "big"', r"shape0: must be a number"),
                           ("P0 = 10.0", r"P0: was renamed 'shape0'.*write shape0 = 10.0"),
                           ("theta0 = 0.0", r"theta0: was renamed 'center0'"),
                           ("bogus = 1", r"bogus: unknown key; the rls estimator takes .*center0 \(number, "
-                                        r"default 0.0\), shape0 \(number > 0, default 1000.0\), forgetting")]:
+                                        r"default 0.0\), shape0 \(number >= 1e-150, <= 1e\+150, default 1000.0\), "
+                                        r"forgetting")]:
         text = MINIMAL + f'[[estimators]]\nmethod = "rls"\nregressions = ["inverse_dynamic"]\n{option}\n'
         with pytest.raises(StudyError, match=r"estimators\[1\]\." + match):
             load_study(_write(tmp_path, text))
     text = MINIMAL.replace('method = "wls"', 'method = "wls"\nlevel = 1.0')
-    with pytest.raises(StudyError, match=r"level: must be < 1.0"):
+    with pytest.raises(StudyError, match=r"level: must be > 0, < 1, got 1\.0"):
         load_study(_write(tmp_path, text))
+    text = MINIMAL.replace('method = "wls"', 'method = "zonotope"\ne_max = 1.0\norder = 1')
+    with pytest.raises(StudyError, match=r"order: must be >= 2, got 1\.$"):
+        load_study(_write(tmp_path, text))
+
+
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
+def test_numbers_must_be_finite(value):
+    """NaN passes every comparison with a bound (nan < 0 and nan > 1 are both False), so a range
+    alone lets it through: Section.float refuses NaN and +-inf, with or without a range, naming
+    the file, the key and the range; an options table (robot, experiment) refuses them too, in a
+    number or in a list of numbers."""
+    sec = Section({"x": value, "y": value}, "t", "f.toml")
+    with pytest.raises(StudyError, match=rf"^f\.toml: t\.x: must be a finite number > 0, <= 1, got {value}\.$"):
+        sec.float("x", lo=0.0, strict_lo=True, hi=1.0)
+    with pytest.raises(StudyError, match=rf"^f\.toml: t\.y: must be a finite number, got {value}\.$"):
+        sec.float("y")
+    for known, given in [({"x": 1.0}, value), ({"x": (0.0, 0.0)}, [0.0, value])]:
+        table = Section({"options": {"x": given}}, "robot", "f.toml")
+        with pytest.raises(StudyError, match=r"robot\.options\.x: must be finite, not NaN or inf"):
+            table.options("options", known, "robot 'toy'")
+
+
+def test_integers_are_checked_against_both_bounds():
+    sec = Section({"n": 11}, "t", "f.toml")
+    with pytest.raises(StudyError, match=r"^f\.toml: t\.n: must be >= 1, <= 10, got 11\.$"):
+        sec.int("n", lo=1, hi=10)
+    assert sec.int("n", lo=1) == 11
+
+
+def test_prior_box_must_hold_the_simulated_truth(tmp_path):
+    """Reference: the H4 model's true Imot1 = 0.0199 kg m^2 and its a-priori value 0.012: a box of
+    +-50 % about the a-priori values, [0.006, 0.018], excludes it. The study is refused naming
+    [prior], the parameter, its truth and box, and the keys to change; +-150 % (the H4 study's) holds
+    every truth."""
+    h4 = MINIMAL.replace('model = "direct_drive"', 'model = "h4"') + '[prior]\ncenter = "model"\n'
+    with pytest.raises(StudyError, match=r"\[prior\]: the prior box excludes the true parameters of the simulated "
+                                         r"robot \(Imot1 = 0\.0199 kg m\^2 outside \[0\.006, 0\.018\].*raise "
+                                         r"prior\.relative_range \(now 0\.5; .*prior\.center \(now 'model'\)"):
+        load_study(_write(tmp_path, h4 + "relative_range = 0.5\n"))
+    assert load_study(_write(tmp_path, h4 + "relative_range = 1.5\n")).prior.relative_range == 1.5
 
 
 def test_seed_must_be_a_non_negative_integer(tmp_path):

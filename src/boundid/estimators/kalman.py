@@ -29,7 +29,7 @@ from boundid._validation import as_float_array
 from boundid.errors import InputError, NumericalError
 from boundid.estimators.estimate import Estimate
 from boundid.estimators.method import Method, Problem, Style, option
-from boundid.estimators.protocol import check_p
+from boundid.estimators.protocol import SHAPE_LIMITS, check_p
 from boundid.estimators.rls import LinearFilter
 from boundid.sets.ellipsoid import log_unit_ball_volume
 
@@ -199,7 +199,8 @@ class KalmanOptions:
     """What a study file may set for ``method = "kalman"``."""
 
     center0: float = option(0.0, "x(0), every parameter (parameter units)", renamed_from=("theta0",))
-    shape0: float = option(1000.0, "P(0) = shape0 I", lo=0.0, strict_lo=True, renamed_from=("P0",))
+    shape0: float = option(1000.0, "P(0) = shape0 I (parameter units squared)", lo=SHAPE_LIMITS[0],
+                           hi=SHAPE_LIMITS[1], renamed_from=("P0",))
     R: float = option(1.0, "measurement noise variance of one row (units of y squared)", lo=0.0, strict_lo=True)
     Q: float = option(0.0, "random-walk variance per sample, Q = Q I (0: constant parameters)", lo=0.0)
 

@@ -26,8 +26,10 @@ SetFamily = Literal["ellipsoid", "box", "parallelotope", "zonotope", "polytope",
 def option(default: Any, help: str, *, lo: float | None = None, hi: float | None = None, strict_lo: bool = False,
            strict_hi: bool = False, renamed_from: tuple[str, ...] = ()):
     """A field of an options dataclass: its default, a help line (units included), the range of a
-    number (``lo``/``hi``, exclusive when ``strict_lo``/``strict_hi``), and the names it had before
-    (a study file using one gets an error naming the new key)."""
+    number (``lo``/``hi``, exclusive when ``strict_lo``/``strict_hi``; an integer's bounds are
+    inclusive), and the names it had before (a study file using one gets an error naming the new
+    key). A study file's value is checked against the range when it is read, and a number must also
+    be finite (:func:`boundid.studies.config.read_options`)."""
     return field(default=default, metadata={"help": help, "lo": lo, "hi": hi, "strict_lo": strict_lo,
                                             "strict_hi": strict_hi, "renamed_from": tuple(renamed_from)})
 

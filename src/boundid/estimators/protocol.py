@@ -60,8 +60,15 @@ def check_names(names, p: int) -> tuple[str, ...] | None:
     return names
 
 
+#: the range of the squared semi-axes (eigenvalues of shape0, parameter units squared) of an
+#: ellipsoidal prior: the recursions multiply two of them and invert them, which stays within
+#: floating point (normal numbers, about 1e-308 to 1e308) only between these
+SHAPE_LIMITS = (1e-150, 1e150)
+
+
 def _shape_matrix(shape0, p: int) -> np.ndarray:
-    """shape0 as a (p, p) symmetric positive definite matrix: s -> s I, a vector -> its diagonal."""
+    """shape0 as a (p, p) symmetric positive definite matrix: s -> s I, a vector -> its diagonal;
+    its eigenvalues within :data:`SHAPE_LIMITS`."""
     S = as_float_array(shape0, "shape0")
     if S.ndim == 0:
         if not (np.isfinite(S) and S > 0):
@@ -72,7 +79,15 @@ def _shape_matrix(shape0, p: int) -> np.ndarray:
         if np.any(S <= 0):
             raise InputError("shape0 given as a vector holds squared semi-axes; all must be > 0.")
         S = np.diag(S)
-    return as_spd(S, "shape0", p)
+    S = as_spd(S, "shape0", p)
+    eig = np.linalg.eigvalsh(S)
+    lo, hi = SHAPE_LIMITS
+    if eig[0] < lo or eig[-1] > hi:
+        raise InputError(f"shape0 (the prior's squared semi-axes, in parameter units squared) must lie between "
+                         f"{lo:g} and {hi:g}, got eigenvalues from {eig[0]:.3g} to {eig[-1]:.3g}: the recursions "
+                         "multiply and invert them past floating point, so rescale the parameters (their units) "
+                         "until the prior's half-widths are nearer 1.")
+    return S
 
 
 def _center(center0, p: int) -> np.ndarray:

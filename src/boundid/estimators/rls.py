@@ -45,7 +45,7 @@ from boundid.errors import InputError, NumericalError
 from boundid.estimators.estimate import Estimate, History, Statistics
 from boundid.estimators.least_squares import check_level
 from boundid.estimators.method import Method, Problem, Style, option
-from boundid.estimators.protocol import RecursiveEstimator, ellipsoid_prior
+from boundid.estimators.protocol import SHAPE_LIMITS, RecursiveEstimator, ellipsoid_prior
 from boundid.sets.ellipsoid import Ellipsoid, log_unit_ball_volume
 
 PAPER_P0 = 1000.0  # direct-drive paper, section 6: P(0) = diag(1000, ..., 1000), theta(0) = 0
@@ -408,7 +408,8 @@ class RLSOptions:
     """What a study file may set for ``method = "rls"`` (the direct-drive paper's defaults)."""
 
     center0: float = option(0.0, "theta(0), every parameter (parameter units)", renamed_from=("theta0",))
-    shape0: float = option(1000.0, "P(0) = shape0 I", lo=0.0, strict_lo=True, renamed_from=("P0",))
+    shape0: float = option(1000.0, "P(0) = shape0 I (parameter units squared)", lo=SHAPE_LIMITS[0],
+                           hi=SHAPE_LIMITS[1], renamed_from=("P0",))
     forgetting: float = option(1.0, "forgetting factor lambda (1 = none)", lo=0.0, strict_lo=True, hi=1.0)
 
 

@@ -389,23 +389,29 @@ class Page:
                            header=header, css=self.css, csp=self.csp)
 
     def to_markdown(self) -> str:
-        """The page as Markdown (``summary.md``): text, tables via tabulate, figures as links."""
-        out = [f"# {self.title}", ""]
+        """The page as Markdown (``summary.md``): text, tables via tabulate, figures as links. Every
+        text it quotes (title, description, captions, table cells ...) has <, > and & escaped, so a
+        Markdown renderer shows it as text, as the HTML page does, and never runs it as HTML."""
+        def esc(text) -> str:
+            return html.escape(str(text), quote=False)
+
+        out = [f"# {esc(self.title)}", ""]
         if self._findings is not None:
-            out += ["**Findings**", ""] + [f"- {' '.join(t.split())}" for t in self._findings.items] + [""]
+            out += ["**Findings**", ""] + [f"- {esc(' '.join(t.split()))}" for t in self._findings.items] + [""]
         if self.description:
-            out += [self.description.strip(), ""]
-        out += [f"- **{k}**: {v}" for k, v in self.setup.items()] + ([""] if self.setup else [])
+            out += [esc(self.description.strip()), ""]
+        out += [f"- **{esc(k)}**: {esc(v)}" for k, v in self.setup.items()] + ([""] if self.setup else [])
         for s in self._sections:
             if s.title is not None:
-                out += [f"## {s.title}", ""]
+                out += [f"## {esc(s.title)}", ""]
             for b in s.blocks:
                 if isinstance(b, _Table):
-                    out += [f"**Table {b.number}.** {b.caption}", "", markdown_table(b.df, b.float_format), ""]
+                    out += [f"**Table {b.number}.** {esc(b.caption)}", "",
+                            esc(markdown_table(b.df, b.float_format)), ""]
                 elif isinstance(b, _Figure):
-                    out += [f"![Figure {b.number}. {b.caption}](figures/{b.name}.png)", ""]
+                    out += [f"![Figure {b.number}. {esc(b.caption)}](figures/{b.name}.png)", ""]
                 else:
-                    out += [b.strip(), ""]
+                    out += [esc(b.strip()), ""]
         return "\n".join(out)
 
     def write(self, path: str | Path) -> Path:

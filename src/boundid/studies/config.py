@@ -15,14 +15,18 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from boundid.errors import InputError, StudyError
 from boundid.estimators.method import Method, Style
+from boundid.estimators.protocol import SHAPE_LIMITS
 from boundid.estimators.registry import METHODS
 from boundid.experiments.measurement import TorqueNoise
 from boundid.models import registry as robots
 from boundid.studies import sizing
 from boundid.studies.registry import experiment_options, make_robot
-from boundid.studies.schema import Section, read_toml
+from boundid.studies.scenarios import read_campaign, read_torque_noise
+from boundid.studies.schema import Section, range_text, read_toml
 
 REGRESSIONS = ("inverse_dynamic", "filtered_dynamic", "supplied_energy", "filtered_power")
 SDP_SETS = ("outer", "inner", "john")
@@ -167,10 +171,9 @@ def _describe(f: dataclasses.Field, hint) -> str:
     if kind == "choice":
         what = "one of " + ", ".join(map(repr, choices))
     else:
-        ranges = [f"{'>' if m.get('strict_lo') else '>='} {m['lo']:g}"] if m.get("lo") is not None else []
-        ranges += [f"{'<' if m.get('strict_hi') else '<='} {m['hi']:g}"] if m.get("hi") is not None else []
+        allowed = range_text(m.get("lo"), m.get("hi"), m.get("strict_lo", False), m.get("strict_hi", False))
         what = {"float": "number", "int": "integer", "bool": "true or false", "str": "string"}[kind]
-        what += f" {', '.join(ranges)}" if ranges else ""
+        what += f" {allowed}" if allowed else ""
     return f"{f.name} ({what}, {'optional' if f.default is None else f'default {f.default!r}'})"
 
 
@@ -186,7 +189,8 @@ def option_help(method: Method) -> str:
 def read_options(sec: Section, method: Method):
     """The ``method.options`` dataclass read from an [[estimators]] table: each field's type gives
     the value's type (Literal: the allowed strings), its metadata the range
-    (:func:`boundid.estimators.method.option`); a former name is refused naming the new one."""
+    (:func:`boundid.estimators.method.option`); a number must be finite and in that range; a former
+    name is refused naming the new one."""
     hints = typing.get_type_hints(method.options)
     values = {}
     for f in dataclasses.fields(method.options):
@@ -204,7 +208,7 @@ def read_options(sec: Section, method: Method):
             values[f.name] = sec.float(f.name, lo=m.get("lo"), hi=m.get("hi"), strict_lo=m.get("strict_lo", False),
                                        strict_hi=m.get("strict_hi", False))
         elif kind == "int":
-            values[f.name] = sec.int(f.name, lo=None if m.get("lo") is None else int(m["lo"]))
+            values[f.name] = sec.int(f.name, lo=m.get("lo"), hi=m.get("hi"))
         elif kind == "bool":
             values[f.name] = sec.bool(f.name)
         else:
@@ -248,14 +252,7 @@ def _experiment(sec: Section, base: Path) -> ExperimentConfig:
         sec.check_unknown()
         return ExperimentConfig(source="measured", measured=measured)
     noise = sec.section("noise")
-    tn = noise.section("torque")
-    torque_noise = TorqueNoise(
-        kind=tn.str("kind", "none", choices=("none", "gaussian", "uniform", "bounded_outliers")),
-        level=tn.float("level", 0.0, lo=0.0),
-        outlier_rate=tn.float("outlier_rate", 0.0, lo=0.0, hi=0.5),
-        outlier_size=tn.float("outlier_size", 0.0, lo=0.0),
-    )
-    tn.check_unknown()
+    torque_noise = read_torque_noise(noise.section("torque"))
     counts = noise.int("encoder_counts_per_rev", None, lo=2)
     noise.check_unknown()
     exp = ExperimentConfig(
@@ -292,6 +289,43 @@ def _check_size(cfg: StudyConfig, model) -> None:
                             pp.lowpass_cutoff_hz, pp.decimation, f"{where}.validation_duration_s")
         duration += exp.validation_duration_s
     sizing.check_budget(round(duration / h) + 1, model.n_joints, model.p, len(cfg.regressions), where)
+
+
+def _check_prior(cfg: StudyConfig, model) -> None:
+    """Refuse a prior box the estimators cannot start from: a half-width whose circumscribing
+    ellipsoid (squared semi-axes p h^2, :func:`boundid.estimators.protocol.ellipsoid_prior`) leaves
+    :data:`~boundid.estimators.protocol.SHAPE_LIMITS`, or, on simulated data, a box that excludes
+    the robot's true parameters (every guaranteed set starts inside it, so none could hold them)."""
+    from boundid.studies.estimation import prior_box  # it imports this module
+
+    pr = cfg.prior
+    ranges = (f"prior.absolute_range (now {pr.absolute_range:g})" if pr.center == "zero" else
+              f"prior.relative_range (now {pr.relative_range:g}; parameters with an a-priori value) or "
+              f"prior.absolute_range (now {pr.absolute_range:g}; the others)")
+    center_key = f"prior.center (now {pr.center!r})"
+    center, half = prior_box(model, pr)
+    lo, hi = (np.sqrt(limit / model.p) for limit in SHAPE_LIMITS)
+
+    def listing(bad: np.ndarray, what) -> str:
+        items = [f"{model.param_names[j]} {what(j)}" for j in bad[:4]]
+        return ", ".join(items) + (f" and {len(bad) - 4} more" if len(bad) > 4 else "")
+
+    bad = np.flatnonzero((half < lo) | (half > hi))
+    if bad.size:
+        raise StudyError(f"{cfg.file}: [prior]: the prior box's half-widths must lie between {lo:.3g} and {hi:.3g} "
+                         "(the estimators' ellipsoid through its corners must stay within floating point); "
+                         f"{listing(bad, lambda j: f'has {half[j]:.3g} {model.param_units[j]}')}; change {ranges}, or "
+                         f"{center_key}.")
+    if cfg.experiment.source != "simulate":
+        return  # the truth of a recording is unknown
+    bad = np.flatnonzero(np.abs(model.theta_true - center) > half)
+    if bad.size:
+        raise StudyError(
+            f"{cfg.file}: [prior]: the prior box excludes the true parameters of the simulated robot ("
+            + listing(bad, lambda j: f"= {model.theta_true[j]:.4g} {model.param_units[j]} outside "
+                                     f"[{center[j] - half[j]:.4g}, {center[j] + half[j]:.4g}]")
+            + f"), so no guaranteed set, which starts inside the box, could hold them; widen the box: raise {ranges}, "
+              f"or change {center_key}.")
 
 
 def load_study(path: str | Path) -> StudyConfig:
@@ -379,8 +413,10 @@ def load_study(path: str | Path) -> StudyConfig:
         paper=dict(top.raw("paper", {})),
         file=path,
     )
-    top.raw("campaign", {})  # [[campaign.scenarios]]: parsed by boundid.studies.scenarios.load_campaign
+    if top.has("campaign"):  # boundid campaign's schema, refused here as there
+        read_campaign(top.section("campaign"), labels)
     st.check_unknown()
     top.check_unknown()
     _check_size(cfg, model)
+    _check_prior(cfg, model)
     return cfg

@@ -22,11 +22,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from boundid.errors import StudyError
 from boundid.experiments.measurement import TorqueNoise
-from boundid.studies.config import StudyConfig
 from boundid.studies.schema import Section, read_toml
+
+if TYPE_CHECKING:  # boundid.studies.config reads the [campaign] table with read_campaign when it loads a study
+    from boundid.studies.config import StudyConfig
 
 NOISE_KINDS = ("none", "gaussian", "uniform", "bounded_outliers")
 
@@ -76,15 +79,20 @@ class CampaignSpec:
         return tuple(known[n] for n in dict.fromkeys(names))
 
 
+def read_torque_noise(sec: Section) -> TorqueNoise:
+    """A torque-noise table (``experiment.noise.torque``, a scenario's ``torque``): kind, level [N m],
+    outlier_rate (share of the samples), outlier_size [N m]; a key left out takes TorqueNoise's default."""
+    noise = TorqueNoise(kind=sec.str("kind", "none", choices=NOISE_KINDS), level=sec.float("level", 0.0, lo=0.0),
+                        outlier_rate=sec.float("outlier_rate", 0.0, lo=0.0, hi=0.5),
+                        outlier_size=sec.float("outlier_size", 0.0, lo=0.0))
+    sec.check_unknown()
+    return noise
+
+
 def _scenario(sec: Section) -> Scenario:
     name = sec.plain_name("name")
-    noise = None
-    if sec.has("torque"):
-        tn = sec.section("torque")
-        noise = TorqueNoise(kind=tn.str("kind", "none", choices=NOISE_KINDS), level=tn.float("level", 0.0, lo=0.0),
-                            outlier_rate=tn.float("outlier_rate", 0.0, lo=0.0, hi=0.5),
-                            outlier_size=tn.float("outlier_size", 0.0, lo=0.0))
-        tn.check_unknown()
+    torque = sec.section("torque")  # read when absent too: check_unknown lists it among the keys
+    noise = read_torque_noise(torque) if sec.has("torque") else None
     sc = Scenario(name=name, description=sec.str("description", ""), torque_noise=noise,
                   encoder_counts_per_rev=sec.int("encoder_counts_per_rev", None, lo=2),
                   structural_error=sec.float("structural_error", None, lo=0.0))
@@ -92,16 +100,12 @@ def _scenario(sec: Section) -> Scenario:
     return sc
 
 
-def load_campaign(cfg: StudyConfig) -> CampaignSpec:
-    """Parse the ``[campaign]`` table of ``cfg.file``; StudyError naming file and key on bad input."""
-    path = Path(cfg.file)
-    data = read_toml(path)
-    if "campaign" not in data:
-        return CampaignSpec(replicates=10, scenarios=(Scenario("study", "the experiment of the study file"),))
-    sec = Section(data, "", path).section("campaign")
+def read_campaign(sec: Section, labels: list[str]) -> CampaignSpec:
+    """The ``[campaign]`` table ``sec`` of a study whose estimators are labelled ``labels``; StudyError
+    naming file and key on bad input. :func:`boundid.studies.config.load_study` reads it too, so
+    ``boundid run`` refuses what ``boundid campaign`` would."""
     replicates = sec.int("replicates", 10, lo=1)
     estimators = tuple(dict.fromkeys(sec.list("estimators", [])))
-    labels = [ec.label for ec in cfg.estimators]
     if any(lab not in labels for lab in estimators):
         raise sec.error("estimators", f"entries must be labels of the study's estimators ({labels}); got "
                                       f"{[lab for lab in estimators if lab not in labels]}.")
@@ -113,3 +117,12 @@ def load_campaign(cfg: StudyConfig) -> CampaignSpec:
         raise sec.error("scenarios", f"names must be unique, got {names}.")
     sec.check_unknown()
     return CampaignSpec(replicates, scenarios, estimators)
+
+
+def load_campaign(cfg: StudyConfig) -> CampaignSpec:
+    """Parse the ``[campaign]`` table of ``cfg.file``; StudyError naming file and key on bad input."""
+    path = Path(cfg.file)
+    data = read_toml(path)
+    if "campaign" not in data:
+        return CampaignSpec(replicates=10, scenarios=(Scenario("study", "the experiment of the study file"),))
+    return read_campaign(Section(data, "", path).section("campaign"), [ec.label for ec in cfg.estimators])

@@ -7,6 +7,7 @@ against its expected type and range here.
 from __future__ import annotations
 
 import builtins
+import math
 import re
 import tomllib
 from collections.abc import Iterable, Mapping
@@ -54,6 +55,20 @@ def describe_option(default: Any) -> str:
     if isinstance(default, builtins.float):
         return "number"
     return "string"
+
+
+def range_text(lo: float | None = None, hi: float | None = None, strict_lo: bool = False,
+               strict_hi: bool = False) -> str:
+    """The range lo..hi in words, as messages and docs/study-files.md write it ("> 0, <= 1"; "" unbounded)."""
+    parts = ([f"{'>' if strict_lo else '>='} {lo:g}"] if lo is not None else []) + (
+        [f"{'<' if strict_hi else '<='} {hi:g}"] if hi is not None else [])
+    return ", ".join(parts)
+
+
+def _finite(value: Any) -> bool:
+    """Whether every number of an option value (a number, or a list of them) is finite (not NaN, not +-inf)."""
+    values = value if isinstance(value, builtins.list) else [value]
+    return all(math.isfinite(v) for v in values if isinstance(v, builtins.float))
 
 
 def _matches(value: Any, default: Any) -> bool:
@@ -107,26 +122,30 @@ class Section:
 
     def float(self, key: str, default: Any = _MISSING, lo: float | None = None, hi: float | None = None,
               strict_lo: bool = False, strict_hi: bool = False) -> float:
+        """A finite number (NaN and +-inf refused) in the range lo..hi (exclusive when strict)."""
         v = self._get(key, default)
         if v is None:
             return v
         if isinstance(v, builtins.bool) or not isinstance(v, builtins.int | builtins.float):
             raise self.error(key, f"must be a number, got {v!r}.")
         v = builtins.float(v)
-        if lo is not None and (v < lo or (strict_lo and v == lo)):
-            raise self.error(key, f"must be {'>' if strict_lo else '>='} {lo}, got {v}.")
-        if hi is not None and (v > hi or (strict_hi and v == hi)):
-            raise self.error(key, f"must be {'<' if strict_hi else '<='} {hi}, got {v}.")
+        allowed = range_text(lo, hi, strict_lo, strict_hi)
+        if not math.isfinite(v):
+            raise self.error(key, f"must be a finite number{' ' + allowed if allowed else ''}, got {v}.")
+        if (lo is not None and (v < lo or (strict_lo and v == lo))) or (
+                hi is not None and (v > hi or (strict_hi and v == hi))):
+            raise self.error(key, f"must be {allowed}, got {v}.")
         return v
 
-    def int(self, key: str, default: Any = _MISSING, lo: int | None = None) -> int:
+    def int(self, key: str, default: Any = _MISSING, lo: int | None = None, hi: int | None = None) -> int:
+        """An integer in the range lo..hi (inclusive)."""
         v = self._get(key, default)
         if v is None:
             return v
         if isinstance(v, builtins.bool) or not isinstance(v, builtins.int):
             raise self.error(key, f"must be an integer, got {v!r}.")
-        if lo is not None and v < lo:
-            raise self.error(key, f"must be >= {lo}, got {v}.")
+        if (lo is not None and v < lo) or (hi is not None and v > hi):
+            raise self.error(key, f"must be {range_text(lo, hi)}, got {v}.")
         return v
 
     def bool(self, key: str, default: Any = _MISSING) -> bool:
@@ -174,8 +193,9 @@ class Section:
     def options(self, key: str, known: Mapping[str, Any], owner: str) -> dict:
         """An options table checked against ``known`` = {option: default}: the type of each value is
         that of its default (a float default accepts integers; a tuple default is a list of that
-        length, an empty tuple a list of strings of any length); lists come back as tuples. Unknown
-        options are refused, listing the known ones."""
+        length, an empty tuple a list of strings of any length); every number must be finite; lists
+        come back as tuples. Unknown options are refused, listing the known ones (the ranges are the
+        owner's to check)."""
         table = self.section(key)
         out = {}
         for name, value in table.data.items():
@@ -189,6 +209,9 @@ class Section:
                 kind = describe_option(default)
                 article = "" if kind.startswith("true") else ("an " if kind[0] in "aeiou" else "a ")
                 raise table.error(name, f"must be {article}{kind} (default {default!r}), got {value!r}.")
+            if not _finite(value):
+                raise table.error(name, f"must be finite, not NaN or inf ({describe_option(default)}, default "
+                                        f"{default!r}), got {value!r}.")
             if isinstance(value, builtins.list) and default == ():
                 value = tuple(value)
             elif isinstance(value, builtins.list):
