@@ -2,7 +2,7 @@
 are never half-written; a run that fails after computing still writes its page.
 
 Independent references: the cases of the bad-input lists "Output escapes its folder" and "Raw
-tracebacks for ordinary bad input", and the numbers of issue 28 item 5 that were not checked when
+tracebacks for ordinary bad input", and the numbers that were once not checked when
 the file was read (each must print exactly one ``boundid: error:`` line, exit 2 within 10 s, print
 nothing on stdout and compute nothing -- the simulation and the regression builder are replaced by
 ones that fail the test); every number the parser reads, each as NaN and +-inf; the bytes of the
@@ -249,7 +249,7 @@ CASES = [
                                                           r"forgetting \(number > 0, <= 1, default 1.0\)"),
     ("obe without e_max", lambda t: _run(_edit(t, 'method = "rls"', 'method = "obe"'), out=str(t)),
      r"estimators\[1\]\.e_max: is required"),
-    # Numbers not checked when the file was read (issue 28, item 5)
+    # Numbers once not checked when the file was read
     ("coulomb_width_rad_s = nan (hung the run)",
      lambda t: _run(_edit(t, "duration_s = 1.0", "duration_s = 1.0\ncoulomb_width_rad_s = nan"), out=str(t)),
      r"experiment\.coulomb_width_rad_s: must be a finite number >= 0, got nan\.$"),

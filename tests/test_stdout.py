@@ -1,4 +1,4 @@
-"""Nothing but boundid on stdout (issue 28): no solver banner or log, whatever the solver versions.
+"""Nothing but boundid on stdout: no solver banner or log, whatever the solver versions.
 
 Reference: the commands' own output as cli.py writes it. ``--json`` prints one JSON document and
 nothing else, so the whole of stdout must parse with json.loads (no leading lines stripped);

@@ -52,13 +52,41 @@ DESCRIPTIONS = {
     "experiment": "Where the data come from: a simulation of the robot, or a recording.",
     "experiment.source": "\"simulate\" runs the robot model; \"measured\" reads the recording named in "
                          "[experiment.measured].",
-    "experiment.measured": "The recording: a CSV or Parquet file with one row per sample.",
-    "experiment.measured.file": "Path of the recording, relative to the study file.",
+    "experiment.measured": "The recording: CSV or Parquet, one row per sample; one file, or the positions and the "
+                           "torques in two; joint side, or motor side with a [experiment.measured.transmission]. "
+                           "Implausible units are refused naming the likely mistake (a sample period over 0.1 s, a "
+                           "joint spanning over 100 rad, a column that never changes).",
+    "experiment.measured.file": "Path of the recording, relative to the study file: every column, or the positions "
+                                "(and the time column) when tau_file holds the torques.",
+    "experiment.measured.tau_file": "Path of a second file holding the torque columns, relative to the study file; "
+                                    "same row count as file, row k the same sample. Absent: the torques are in file.",
+    "experiment.measured.sample_period_s": "Sample period [s] of a recording without a time column (row k at k "
+                                           "times it); exclusive with columns.time.",
+    "experiment.measured.angle_unit": "Unit of the position columns (motor side with a transmission).",
+    "experiment.measured.time_unit": "Unit of the time column (sample_period_s is always in s).",
     "experiment.measured.columns": "The recording's column names.",
-    "experiment.measured.columns.time": "Time [s]; uniformly spaced (relative jitter below 1e-3), the "
-                                        "filters and differences assume one sample period.",
-    "experiment.measured.columns.q": "Joint positions [rad], one column per joint, in the model's joint order.",
-    "experiment.measured.columns.tau": "Joint torques [N m], one column per joint, as many as q.",
+    "experiment.measured.columns.time": "Time [time_unit], uniformly spaced (relative jitter below 1e-3): the "
+                                        "filters and differences assume one sample period. Absent: sample_period_s "
+                                        "gives it.",
+    "experiment.measured.columns.q": "Positions [angle_unit], one column per joint (per motor with a transmission), "
+                                     "in the model's joint order.",
+    "experiment.measured.columns.tau": "Torques, as many columns as q: joint torques [N m], or with a transmission the "
+                                       "motors' logged signal (tau_m = torque_gains x signal).",
+    "experiment.measured.transmission": "Motor-side recording: q = R^-1 q_m + joint_offsets_rad, tau = R^T "
+                                        "(torque_gains x signal), with R = diag(gear_ratios) plus the coupling terms "
+                                        "(q_m = R q; virtual work gives tau). Absent: the columns are joint side.",
+    "experiment.measured.transmission.gear_ratios": "One per joint, motor turns per joint turn, sign allowed (the "
+                                                    "diagonal of R).",
+    "experiment.measured.transmission.coupling": "Entries [motor, joint, ratio] (1-based, motor != joint): "
+                                                 "R[motor, joint] = ratio, a motor that also turns with another joint "
+                                                 "(a coupled wrist: [6, 5, 32] for a TX40's motor 6 turning with q5 + "
+                                                 "q6). Absent: none.",
+    "experiment.measured.transmission.joint_offsets_rad": "Joint-side offsets [rad], one per joint, added after the "
+                                                          "conversion (a motor-side encoder offset c is -R^-1 c "
+                                                          "here). Absent: 0.",
+    "experiment.measured.transmission.torque_gains": "Motor torque per unit of the logged signal (e.g. N m/A), one "
+                                                     "per motor, non-zero. Absent: 1 (the log holds motor torques "
+                                                     "in N m).",
     "experiment.control": "\"open_loop\": the direct-drive paper's torques (31)-(32); \"closed_loop\": PI "
                           "control along a Fourier-series trajectory (the H4 experiment); \"tracking\": a "
                           "Fourier trajectory within the joint limits tracked by computed torque + PID (URDF arms).",
@@ -84,8 +112,10 @@ DESCRIPTIONS = {
     "preprocessing.lowpass_cutoff_hz": "Zero-phase Butterworth cut-off before the central differences of the "
                                        "inverse dynamic model [Hz]; absent: no filter.",
     "preprocessing.decimation": "Parallel filtering and decimation factor of the inverse dynamic rows.",
-    "preprocessing.min_speed_rad_s": "Drop inverse-dynamic rows of a joint slower than this [rad/s] (sign(qd) is "
-                                     "unreliable at rest); 0 keeps every row.",
+    "preprocessing.min_speed_rad_s": "Drop the inverse-dynamic rows of a joint within the filters' reach of a "
+                                     "sample where it is slower than this [rad/s] (sign(qd) is unreliable at rest, "
+                                     "and the filters spread the error); one number, or a list of one per joint; "
+                                     "0 keeps every row.",
     "preprocessing.lambda_rad_s": "Pole of the filters lambda/(s + lambda), lambda s/(s + lambda) [rad/s].",
     "preprocessing.discretisation": "Discretisation of those filters.",
     "prior": "Prior knowledge: a box, the OBE's initial set (circumscribed) and a bound of the exact polytope. "
@@ -198,7 +228,7 @@ class _Probe(Section):
         path = self._note(key, "string", default, ", ".join(f'"{c}"' for c in allowed))
         if allowed:
             return _Probe.forced.get(path, allowed[0])
-        return default if isinstance(default, str) else "probe"
+        return default if isinstance(default, str) or default is None else "probe"  # None: an optional one absent
 
     def float(self, key, default=MISSING, lo=None, hi=None, strict_lo=False, strict_hi=False):
         self._note(key, "number", default, range_text(lo, hi, strict_lo, strict_hi))
@@ -217,11 +247,13 @@ class _Probe(Section):
 
     def list(self, key, default=MISSING, of=builtins.str, choices=None):
         allowed = tuple(choices) if choices is not None else ()
-        kinds = {builtins.str: "strings", builtins.list: "lists"}.get(of, "values")
+        numbers = (builtins.int, builtins.float)
+        kinds = {builtins.str: "strings", builtins.list: "lists", numbers: "numbers"}.get(of, "values")
         self._note(key, f"list of {kinds}", default, ", ".join(f'"{c}"' for c in allowed))
         if allowed:
             return list(allowed)
-        return [] if of is builtins.list else (list(default) if isinstance(default, list) else ["a", "b"])
+        given = [1.0, 1.0] if of == numbers else ["a", "b"]  # two entries, as every list the probe answers
+        return [] if of is builtins.list else (list(default) if isinstance(default, list) else given)
 
     def section(self, key, required=False):
         self._note(key, "table", MISSING if required else {})

@@ -7,6 +7,8 @@
    trajectory (the paper, after eq. 19) or analytically.
 3. "parallel filtering": the torques and every regressor column are low-passed and decimated
    together (linear, so the model stays exact), then edge samples are dropped.
+4. optionally, low speed: the rows of a joint near the samples where its estimated speed is below a
+   threshold are dropped (:func:`low_speed_window`).
 
 :func:`run_h4_experiment` runs the whole simulated experiment: exciting trajectory, closed loop
 on the "truth" robot (structural error), noisy torque measurement, identification regression and
@@ -18,12 +20,14 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import ndimage
 
+from boundid._validation import as_float_array
 from boundid.errors import InputError
 from boundid.experiments.closed_loop import ClosedLoopRun, JointPID, simulate_closed_loop
 from boundid.experiments.measurement import TorqueNoise
-from boundid.experiments.preprocessing import decimate, differentiate
-from boundid.experiments.regression import Regression, stack_joint_rows
+from boundid.experiments.preprocessing import DECIMATION_ORDER, decimate, differentiate, main_lobe
+from boundid.experiments.regression import DroppedRows, Regression, stack_joint_rows
 from boundid.experiments.trajectories import (
     SegmentedTrajectory,
     check_in_workspace,
@@ -50,11 +54,12 @@ def cutoff_from_bandwidth(bandwidth_hz: float, order: int = 4, max_distortion: f
 class IdentificationDesign:
     """The torque-free half of :func:`identification_regression`: what the motor angles fix.
 
-    rows : the regression with the torque side left at zero (W, joint, sample, t, info final);
-    shape : (N, n), that of the angles (and of the torques); keep : (N_d,) bool, the decimated
-    samples kept (edges dropped); fast : (R,) bool over the kept rows (sample-major), the rows
-    fast enough (``min_speed``), or None; decimation, fc [Hz], fs [Hz] : the torque's low-pass and
-    decimation (the regressor columns'). :meth:`regression` then costs one low-pass of the torque.
+    rows : the regression with the torque side left at zero (W, joint, sample, t, info, dropped
+    final); shape : (N, n), that of the angles (and of the torques); keep : (N_d,) bool, the
+    decimated samples kept (edges dropped); fast : (R,) bool over the kept rows (sample-major), the
+    rows kept by the low-speed rule (``min_speed``), or None; decimation, fc [Hz], fs [Hz] : the
+    torque's low-pass and decimation (the regressor columns'). :meth:`regression` then costs one
+    low-pass of the torque.
     """
 
     rows: Regression
@@ -75,13 +80,51 @@ class IdentificationDesign:
         if self.fast is not None:
             y = y[self.fast]
         r = self.rows
-        return Regression(r.W, y, r.joint, r.sample, r.t, r.model, r.param_names, r.unit, dict(r.info))
+        return Regression(r.W, y, r.joint, r.sample, r.t, r.model, r.param_names, r.unit, dict(r.info), r.dropped)
+
+
+#: samples on either side of a sample that its qdd depends on: central differences of central differences
+DIFFERENCE_STENCIL = 2
+
+
+def low_speed_window(fs: float, cutoff_hz: float | None, order: int, decimation: int, decimation_cutoff_hz: float
+                     ) -> int:
+    """Half-width [samples] of the rows that a slow sample spoils: the main lobe of the angles'
+    low-pass (cutoff_hz, order; None: none) followed by the decimation low-pass (decimation_cutoff_hz,
+    :data:`DECIMATION_ORDER`; none when decimation = 1), :func:`boundid.experiments.preprocessing.main_lobe`,
+    plus the :data:`DIFFERENCE_STENCIL` of qdd; fs [Hz].
+
+    Why: where a joint sticks or reverses, its torque departs from the model's fc sign(qd) (stiction,
+    creep) and its estimated acceleration misses the stick-slip transients. The zero-phase filters
+    spread that error of one sample k over the rows around k, weighted by their combined impulse
+    response: positive over its main lobe (about 1 / (2 f_c) each side for one filter; 54 ms for the
+    10 Hz low-pass of the angles then of the torque, where it holds ~75 % of the response's absolute
+    sum), then ringing in side lobes of alternating sign, in which an error lasting longer than a lobe
+    largely cancels. The main lobe, not the response's support: to 1e-3 of its peak that support is
+    0.74 s each side at 10 Hz (order 4 then 8), and dropping it removed 97 % of the rows of a MuJoCo
+    UR5 recording (tests/test_mujoco_recording.py).
+    """
+    filters = [(cutoff_hz, order)] if cutoff_hz is not None else []
+    if decimation > 1:
+        filters.append((decimation_cutoff_hz, DECIMATION_ORDER))
+    return main_lobe(fs, filters) + DIFFERENCE_STENCIL
+
+
+def _speed_thresholds(min_speed, n: int) -> np.ndarray:
+    """(n,) rad/s thresholds from one number or one per joint (each finite, >= 0)."""
+    v = as_float_array(min_speed, "min_speed")
+    if v.ndim == 0:
+        v = np.full(n, float(v))
+    if v.shape != (n,) or not np.all(np.isfinite(v) & (v >= 0)):
+        raise InputError(f"min_speed must be one number >= 0 (rad/s) or one per joint ({n}), got {min_speed!r}.")
+    return v
 
 
 def identification_design(robot, t, q, cutoff_hz: float, decimation: int = 10,
                           decimation_cutoff_hz: float | None = None, jdot: str = "central",
-                          edge_s: float = 0.2, min_speed: float = 0.0, order: int = 4) -> IdentificationDesign:
-    """Steps 1-3 of the pipeline on the angles alone (arguments of :func:`identification_regression`)."""
+                          edge_s: float = 0.2, min_speed=0.0, order: int = 4,
+                          slow_window_s: float | None = 0.0) -> IdentificationDesign:
+    """Steps 1-4 of the pipeline on the angles alone (arguments of :func:`identification_regression`)."""
     t = np.asarray(t, float)
     q = np.asarray(q, float)
     if t.ndim != 1 or q.shape != (len(t), robot.n_joints):
@@ -107,20 +150,40 @@ def identification_design(robot, t, q, cutoff_hz: float, decimation: int = 10,
     Yd = decimate(Y.reshape(N, n * p), decimation, fc, fs).reshape(-1, n, p)
     td = t[::decimation]
     keep = (td >= t[0] + edge_s) & (td <= t[-1] - edge_s)
+    speeds = _speed_thresholds(min_speed, n)
     info = {"cutoff_hz": cutoff_hz, "decimation": decimation, "decimation_cutoff_hz": fc, "jdot": jdot,
             "edge_s": edge_s, "min_speed": min_speed, "fs_hz": fs}
     rows = stack_joint_rows(Yd[keep], np.zeros((int(keep.sum()), n)), td[keep], "inverse_dynamic",
                             robot.param_names, info=info)
     fast = None
-    if min_speed > 0:
-        fast = np.abs(qd[::decimation][keep]).reshape(-1) >= min_speed  # sample-major, like the rows
+    if np.any(speeds > 0):
+        if slow_window_s is None:
+            window = low_speed_window(fs, cutoff_hz, order, decimation, fc)
+        elif np.isfinite(slow_window_s) and slow_window_s >= 0:
+            window = int(round(slow_window_s * fs))
+        else:
+            raise InputError(f"slow_window_s must be None or a finite number >= 0 (s), got {slow_window_s!r}.")
+        slow = np.abs(qd) < speeds  # (N, n), per joint
+        if window > 0:  # every sample within +-window of a slow one of the same joint
+            slow = ndimage.binary_dilation(slow, structure=np.ones((2 * window + 1, 1), bool))
+        fast = ~slow[::decimation][keep].reshape(-1)  # sample-major, like the rows
+        if not fast.any():
+            raise InputError(f"min_speed {min_speed!r} rad/s drops every inverse-dynamic row (a joint slower than "
+                             f"it within {window / fs:g} s of each); lower the threshold(s).")
+        per_joint = np.bincount(rows.joint[~fast], minlength=n)
         rows = rows.subset(fast)
+        limit = f"{speeds[0]:g}" if np.all(speeds == speeds[0]) else f"({', '.join(f'{v:g}' for v in speeds)})"
+        rows.dropped = DroppedRows(
+            int(per_joint.sum()), int(fast.size), tuple(int(c) for c in per_joint), window / fs,
+            f"a joint slower than {limit} rad/s within {window / fs:g} s: there its friction is not fc sign(qd) "
+            "(stiction, creep) and the zero-phase filters spread that error over the neighbouring rows")
     return IdentificationDesign(rows, q.shape, keep, fast, decimation, fc, fs)
 
 
 def identification_regression(robot, t, q, tau, cutoff_hz: float, decimation: int = 10,
                               decimation_cutoff_hz: float | None = None, jdot: str = "central",
-                              edge_s: float = 0.2, min_speed: float = 0.0, order: int = 4) -> Regression:
+                              edge_s: float = 0.2, min_speed=0.0, order: int = 4,
+                              slow_window_s: float | None = 0.0) -> Regression:
     """The paper's identification regression from sampled motor angles and torques.
 
     t (N,) s uniformly sampled; q (N, 4) encoder angles (rad); tau (N, 4) Gamma = G_T V_T (N m);
@@ -128,8 +191,10 @@ def identification_regression(robot, t, q, tau, cutoff_hz: float, decimation: in
     after low-passing tau and the regressor columns alike with cut-off ``decimation_cutoff_hz``
     (default: the same cut-off as q's, so both sides share one pass band); jdot : "central"
     (paper) or "analytic"; edge_s : s dropped at each end (filter transients); min_speed : rad/s,
-    drop the rows of joint j where the estimated |qd_j| < min_speed (there sign(qd) of the model is
-    unreliable: at rest and at velocity reversals).
+    one number or (n,) per joint: drop the rows of joint j within ``slow_window_s`` of a sample where
+    the estimated |qd_j| < min_speed_j (there sign(qd) of the model is unreliable: at rest and at
+    velocity reversals); slow_window_s : s, 0 (the slow sample's own row, the default) or None (the
+    filters' reach, :func:`low_speed_window`); ``dropped`` of the result counts those rows.
     Rows are sample-major (joint 0..3 of each kept sample); ``info`` records the settings.
     The angles' half is :func:`identification_design` (reuse it when only the torque changes).
     """
@@ -137,7 +202,7 @@ def identification_regression(robot, t, q, tau, cutoff_hz: float, decimation: in
     if tau.shape != q.shape:
         raise InputError(f"need q and tau of the same shape (N, {robot.n_joints}); got {q.shape}, {tau.shape}.")
     return identification_design(robot, t, q, cutoff_hz, decimation, decimation_cutoff_hz, jdot, edge_s,
-                                 min_speed, order).regression(tau)
+                                 min_speed, order, slow_window_s).regression(tau)
 
 
 @dataclass(frozen=True)

@@ -53,6 +53,24 @@ def zero_phase_lowpass(x, cutoff_hz: float, fs_hz: float, order: int = 4) -> np.
     return signal.sosfiltfilt(sos, x, axis=0)
 
 
+def main_lobe(fs_hz: float, filters) -> int:
+    """Half-width [samples] of the main lobe of zero-phase Butterworth low-passes run one after the other.
+
+    filters : (cutoff_hz, order) pairs (empty: none, 0). The combined impulse response of the
+    ``sosfiltfilt`` passes is symmetric, largest at lag 0 and positive up to its first zero crossing
+    (about 1 / (2 f_c) for one filter); returned is the last lag k >= 0 where it is still > 0.
+    """
+    filters = list(filters)
+    if not filters:
+        return 0
+    length = int(np.ceil(20.0 * fs_hz / min(fc for fc, _ in filters)))  # the lobe ends within a few 1 / f_c
+    x = np.zeros(2 * length + 1)
+    x[length] = 1.0
+    for cutoff_hz, order in filters:
+        x = zero_phase_lowpass(x, cutoff_hz, fs_hz, order)
+    return int(np.argmax(x[length:] <= 0.0)) - 1
+
+
 def differentiate(q, h: float, cutoff_hz: float | None = None, order: int = 4):
     """Velocity and acceleration of a position signal by central differences.
 
@@ -66,8 +84,12 @@ def differentiate(q, h: float, cutoff_hz: float | None = None, order: int = 4):
     return q, qd, central_difference(qd, h)
 
 
+#: Butterworth order of :func:`decimate`'s low-pass.
+DECIMATION_ORDER = 8
+
+
 def decimate(x, factor: int, cutoff_hz: float | None = None, fs_hz: float | None = None,
-             order: int = 8) -> np.ndarray:
+             order: int = DECIMATION_ORDER) -> np.ndarray:
     """Low-pass (zero-phase) then keep every ``factor``-th sample.
 
     Apply it to the torque and to every regressor column alike ("parallel filtering", Gautier):

@@ -48,6 +48,29 @@ from boundid.errors import InputError
 from boundid.experiments.filters import FirstOrderFilters, cumulative_integral
 
 
+@dataclass(frozen=True)
+class DroppedRows:
+    """Rows a regression builder left out, and why (e.g. the low-speed rows of the inverse dynamic model).
+
+    rows : int                  rows dropped
+    of : int                    rows before dropping them
+    per_joint : tuple of int    (n,) rows dropped per joint
+    window_s : float            s, half-width of the window dropped around each offending sample
+    reason : str                why, in words
+    """
+
+    rows: int
+    of: int
+    per_joint: tuple[int, ...]
+    window_s: float
+    reason: str
+
+    @property
+    def share(self) -> float:
+        """rows / of, the fraction of the rows dropped (0 when there were none)."""
+        return self.rows / self.of if self.of else 0.0
+
+
 @dataclass
 class Regression:
     """A linear regression y = W theta + e built from robot data.
@@ -61,6 +84,7 @@ class Regression:
     param_names : tuple names of the p parameters (from the robot model)
     unit : str          unit of y ("N m", "J", "W")
     info : dict         how it was built (filter lambda [rad/s], discretisation, decimation ...)
+    dropped : DroppedRows or None   the rows the builder left out and why (None: none left out)
     """
 
     W: np.ndarray
@@ -72,6 +96,7 @@ class Regression:
     param_names: tuple[str, ...]
     unit: str = "N m"
     info: dict = field(default_factory=dict)
+    dropped: DroppedRows | None = None
 
     def __post_init__(self):
         self.W, self.y = as_regression(self.W, self.y)
@@ -97,7 +122,7 @@ class Regression:
     def subset(self, mask) -> Regression:
         """The rows selected by a boolean mask or an index array."""
         return Regression(self.W[mask], self.y[mask], self.joint[mask], self.sample[mask],
-                          self.t[mask], self.model, self.param_names, self.unit, dict(self.info))
+                          self.t[mask], self.model, self.param_names, self.unit, dict(self.info), self.dropped)
 
 
 def stack_joint_rows(Y: np.ndarray, tau: np.ndarray, t: np.ndarray, model: str,

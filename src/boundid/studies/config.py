@@ -8,6 +8,7 @@ seed. See ``studies/*.toml`` for commented examples.
 from __future__ import annotations
 
 import dataclasses
+import math
 import numbers
 import types
 import typing
@@ -22,6 +23,9 @@ from boundid.estimators.method import Method, Style
 from boundid.estimators.protocol import SHAPE_LIMITS
 from boundid.estimators.registry import METHODS
 from boundid.experiments.measurement import TorqueNoise
+from boundid.experiments.recording import ANGLE_UNITS, TIME_UNITS
+from boundid.experiments.transmission import Transmission, TransmissionError
+from boundid.models import RobotModel
 from boundid.models import registry as robots
 from boundid.studies import sizing
 from boundid.studies.registry import experiment_options, make_robot
@@ -37,12 +41,24 @@ RESERVED_NAMES = ("benchmarks", "teaching")
 
 @dataclass(frozen=True)
 class MeasuredData:
-    """A recording: CSV or Parquet with time, joint positions [rad] and torques [N m]."""
+    """A recording, CSV or Parquet with one row per sample (read by
+    :func:`boundid.experiments.recording.read_recording`).
+
+    file : the positions and torques, or the positions only when ``tau_file`` holds the torques
+    time : the time column of ``file`` [``time_unit``], or None with ``sample_period_s`` [s]
+    q, tau : one position column [``angle_unit``] and one torque column per joint (or motor):
+        joint side [N m], or motor side converted by ``transmission``
+    """
 
     file: Path
-    time: str
+    time: str | None
     q: tuple[str, ...]
     tau: tuple[str, ...]
+    tau_file: Path | None = None
+    sample_period_s: float | None = None
+    angle_unit: str = "rad"  # | "deg"
+    time_unit: str = "s"  # | "ms"
+    transmission: Transmission | None = None
 
 
 @dataclass(frozen=True)
@@ -70,15 +86,17 @@ class PreprocessingConfig:
     lowpass_cutoff_hz : zero-phase Butterworth cut-off before the central differences that give
         qd and qdd for the inverse dynamic model (None: no filter)
     decimation : parallel filtering and decimation factor of the inverse dynamic rows
-    min_speed_rad_s : drop inverse-dynamic rows of a joint moving slower than this (there the
-        model's sign(qd) is unreliable: at rest and at velocity reversals); 0 keeps every row
+    min_speed_rad_s : rad/s, one threshold or a tuple of one per joint: drop the inverse-dynamic
+        rows of a joint within the filters' reach of a sample where it moves slower than its
+        threshold (there the model's sign(qd) is unreliable: at rest and at velocity reversals, and
+        the zero-phase filters spread the error to the neighbouring rows); 0 keeps every row
     lambda_rad_s, discretisation : the filters lambda/(s + lambda), lambda s/(s + lambda)
     """
 
     pairing: str = "zoh_midpoint"
     lowpass_cutoff_hz: float | None = None
     decimation: int = 1
-    min_speed_rad_s: float = 0.0
+    min_speed_rad_s: float | tuple[float, ...] = 0.0
     lambda_rad_s: float = 50.0
     discretisation: str = "tustin"  # | "paper"
 
@@ -97,6 +115,18 @@ class PriorConfig:
     center: str = "zero"
     relative_range: float = 1.0
     absolute_range: float = 1000.0
+
+
+def prior_box(model: RobotModel, prior: PriorConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The prior box (center, half_width), each (p,)."""
+    known = np.isfinite(model.theta_prior) & (model.theta_prior != 0)
+    if prior.center == "model":
+        center = np.where(np.isfinite(model.theta_prior), model.theta_prior, 0.0)
+        half = np.where(known, prior.relative_range * np.abs(center), prior.absolute_range)
+    else:
+        center = np.zeros(model.p)
+        half = np.full(model.p, prior.absolute_range)
+    return center, half
 
 
 @dataclass(frozen=True)
@@ -234,21 +264,51 @@ def _estimator(sec: Section, regressions: tuple[str, ...]) -> EstimatorConfig:
     return EstimatorConfig(name, label, regs, options, e_max)
 
 
+def _transmission(tr: Section, n: int) -> Transmission:
+    """[experiment.measured.transmission] of a motor-side recording with n position columns
+    (checked by :class:`boundid.experiments.transmission.Transmission`)."""
+    ratios = tr.list("gear_ratios", of=(int, float))
+    coupling = tr.list("coupling", [], of=list)
+    offsets = tr.list("joint_offsets_rad", [], of=(int, float))
+    gains = tr.list("torque_gains", [], of=(int, float))
+    tr.check_unknown()
+    if len(ratios) != n:
+        raise tr.error("gear_ratios", f"has {len(ratios)} number(s), columns.q names {n} joints: give one ratio "
+                                      "(motor turns per joint turn) per joint.")
+    try:
+        return Transmission(tuple(ratios), tuple(tuple(e) for e in coupling), tuple(offsets) or None,
+                            tuple(gains) or None)
+    except TransmissionError as exc:
+        raise tr.error(exc.key, exc.reason) from None
+
+
 def _experiment(sec: Section, base: Path) -> ExperimentConfig:
     source = sec.str("source", choices=("simulate", "measured"))
     if source == "measured":
         m = sec.section("measured", required=True)
+        period = m.float("sample_period_s", None, lo=0.0, strict_lo=True)  # first: a NaN is named before all else
+        file, tau_file = m.str("file"), m.str("tau_file", None)
+        angle_unit = m.str("angle_unit", "rad", choices=tuple(ANGLE_UNITS))
+        time_unit = m.str("time_unit", "s", choices=tuple(TIME_UNITS))
         cols = m.section("columns", required=True)
-        measured = MeasuredData(
-            file=(base / m.str("file")).resolve(),
-            time=cols.str("time"),
-            q=tuple(cols.list("q")),
-            tau=tuple(cols.list("tau")),
-        )
+        time, q, tau = cols.str("time", None), tuple(cols.list("q")), tuple(cols.list("tau"))
         cols.check_unknown()
+        transmission = _transmission(m.section("transmission"), len(q)) if m.has("transmission") else None
         m.check_unknown()
-        if len(measured.q) != len(measured.tau):
-            raise cols.error("tau", f"names {len(measured.tau)} columns but q names {len(measured.q)}.")
+        if not q:
+            raise cols.error("q", "names no column: give one position column per joint.")
+        if len(q) != len(tau):
+            raise cols.error("tau", f"names {len(tau)} columns but q names {len(q)}.")
+        if time is not None and period is not None:
+            raise m.error("sample_period_s", "is given with a time column (columns.time); keep one: "
+                                             "sample_period_s is for a recording without a time column.")
+        if time is None and period is None:
+            raise cols.error("time", "is required unless experiment.measured.sample_period_s gives the sample "
+                                     "period [s] of a recording without a time column.")
+        measured = MeasuredData(file=(base / file).resolve(), time=time, q=q, tau=tau,
+                                tau_file=None if tau_file is None else (base / tau_file).resolve(),
+                                sample_period_s=period, angle_unit=angle_unit, time_unit=time_unit,
+                                transmission=transmission)
         sec.check_unknown()
         return ExperimentConfig(source="measured", measured=measured)
     noise = sec.section("noise")
@@ -296,8 +356,6 @@ def _check_prior(cfg: StudyConfig, model) -> None:
     ellipsoid (squared semi-axes p h^2, :func:`boundid.estimators.protocol.ellipsoid_prior`) leaves
     :data:`~boundid.estimators.protocol.SHAPE_LIMITS`, or, on simulated data, a box that excludes
     the robot's true parameters (every guaranteed set starts inside it, so none could hold them)."""
-    from boundid.studies.estimation import prior_box  # it imports this module
-
     pr = cfg.prior
     ranges = (f"prior.absolute_range (now {pr.absolute_range:g})" if pr.center == "zero" else
               f"prior.relative_range (now {pr.relative_range:g}; parameters with an a-priori value) or "
@@ -328,6 +386,18 @@ def _check_prior(cfg: StudyConfig, model) -> None:
               f"or change {center_key}.")
 
 
+def _min_speed(pp: Section, n: int) -> float | tuple[float, ...]:
+    """preprocessing.min_speed_rad_s: one threshold [rad/s] for every joint, or a list of n (one per joint)."""
+    key = "min_speed_rad_s"
+    if not isinstance(pp.data.get(key), list):
+        return pp.float(key, 0.0, lo=0.0)
+    values = pp.list(key, of=(int, float))
+    if len(values) != n or not all(math.isfinite(v) and v >= 0 for v in values):
+        raise pp.error(key, f"must be one number >= 0 or a list of {n} numbers >= 0 (one per joint of the robot, "
+                            f"rad/s), got {values!r}.")
+    return tuple(float(v) for v in values)
+
+
 def load_study(path: str | Path) -> StudyConfig:
     """Parse and validate a study file; raises :class:`StudyError` naming the file and key."""
     path = Path(path)
@@ -350,7 +420,7 @@ def load_study(path: str | Path) -> StudyConfig:
         pairing=pp.str("pairing", "zoh_midpoint", choices=("zoh_midpoint", "paper")),
         lowpass_cutoff_hz=pp.float("lowpass_cutoff_hz", None, lo=0.0, strict_lo=True),
         decimation=pp.int("decimation", 1, lo=1),
-        min_speed_rad_s=pp.float("min_speed_rad_s", 0.0, lo=0.0),
+        min_speed_rad_s=_min_speed(pp, model.n_joints),
         lambda_rad_s=pp.float("lambda_rad_s", 50.0, lo=0.0, strict_lo=True),
         discretisation=pp.str("discretisation", "tustin", choices=("tustin", "paper")),
     )

@@ -38,7 +38,8 @@ def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> St
     exp = cfg.experiment
     if exp.source == "measured":
         m = exp.measured
-        rec = read_recording(m.file, m.time, m.q, m.tau)
+        rec = read_recording(m.file, m.time, m.q, m.tau, tau_file=m.tau_file, sample_period_s=m.sample_period_s,
+                             angle_unit=m.angle_unit, time_unit=m.time_unit, transmission=m.transmission)
         if rec.n_joints != model.n_joints:
             raise StudyError(f"{cfg.file}: the recording has {rec.n_joints} joints, the {model.name} model "
                              f"{model.n_joints}; map one q and one tau column per joint.")
@@ -48,7 +49,7 @@ def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> St
         sizing.check_budget(rec.t.size, rec.n_joints, model.p, len(cfg.regressions), where)
         sizing.check_length(float(rec.t[-1] - rec.t[0]), rec.h, model.n_joints, model.p, cfg.regressions,
                             pp.lowpass_cutoff_hz, pp.decimation, f"{where} ({rec.t.size} samples)")
-        return StudyData(recording=rec, info={"source": str(m.file)})
+        return StudyData(recording=rec, info={"source": " + ".join(str(f) for f in (m.file, m.tau_file) if f)})
     if exp.control == "open_loop":
         return _open_loop(cfg, model, rng)
     if exp.control == "tracking":

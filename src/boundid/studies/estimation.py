@@ -14,19 +14,7 @@ from boundid.estimators.registry import METHODS
 from boundid.experiments.regression import Regression
 from boundid.models import RobotModel
 from boundid.sets import Box
-from boundid.studies.config import EstimatorConfig, PriorConfig
-
-
-def prior_box(model: RobotModel, prior: PriorConfig) -> tuple[np.ndarray, np.ndarray]:
-    """The prior box (center, half_width), each (p,)."""
-    known = np.isfinite(model.theta_prior) & (model.theta_prior != 0)
-    if prior.center == "model":
-        center = np.where(np.isfinite(model.theta_prior), model.theta_prior, 0.0)
-        half = np.where(known, prior.relative_range * np.abs(center), prior.absolute_range)
-    else:
-        center = np.zeros(model.p)
-        half = np.full(model.p, prior.absolute_range)
-    return center, half
+from boundid.studies.config import EstimatorConfig, PriorConfig, prior_box
 
 
 def estimation_problem(ec: EstimatorConfig, reg: Regression, model: RobotModel, prior: PriorConfig) -> Problem:

@@ -17,7 +17,9 @@ def inverse_dynamic_rows(model: RobotModel, rec: Recording, pp: PreprocessingCon
     Jdot rather than the paper's central difference, so any robot model works): zero-phase
     low-pass and central differences for qd, qdd; torques and regressor columns low-pass filtered
     and decimated together ("parallel filtering"); the first and last ``3 / f_c`` seconds, where the
-    zero-phase filters start from assumed edge values, dropped."""
+    zero-phase filters start from assumed edge values, dropped; with ``min_speed_rad_s``, the rows of
+    a joint within the filters' reach (:func:`boundid.experiments.h4_pipeline.low_speed_window`) of a
+    sample where it is slower than its threshold, dropped too (counted in the result's ``dropped``)."""
     return inverse_dynamic_design(model, rec, pp).regression(rec.tau)
 
 
@@ -27,7 +29,7 @@ def inverse_dynamic_design(model: RobotModel, rec: Recording, pp: PreprocessingC
     h = rec.h
     fc = pp.lowpass_cutoff_hz or 0.8 * 0.5 / (h * pp.decimation)
     return identification_design(model, rec.t, rec.q, pp.lowpass_cutoff_hz, pp.decimation, decimation_cutoff_hz=fc,
-                                 jdot="analytic", edge_s=3.0 / fc, min_speed=pp.min_speed_rad_s)
+                                 jdot="analytic", edge_s=3.0 / fc, min_speed=pp.min_speed_rad_s, slow_window_s=None)
 
 
 def build_regressions(model: RobotModel, rec: Recording, pp: PreprocessingConfig,

@@ -271,7 +271,7 @@ def _is_friction(name: str) -> bool:
 
 def prior_bounds(r) -> tuple[np.ndarray, np.ndarray]:
     """The study's prior box (lo, hi), each (p,)."""
-    from boundid.studies.estimation import prior_box
+    from boundid.studies.config import prior_box
 
     c, h = prior_box(r.model, r.config.prior)
     return c - h, c + h

@@ -16,9 +16,9 @@ from boundid.experiments.regression import Regression
 from boundid.models import RobotModel
 from boundid.sets import Polytope, SDPResult
 from boundid.sets.sdp import VolumeBracket, min_volume_bracket, polytope_ellipsoids
-from boundid.studies.config import StudyConfig
+from boundid.studies.config import StudyConfig, prior_box
 from boundid.studies.data import StudyData, acquire
-from boundid.studies.estimation import prior_box, run_estimator
+from boundid.studies.estimation import run_estimator
 from boundid.studies.physical_stage import PhysicalResult, physical_stage
 from boundid.studies.progress import QUIET, Progress
 from boundid.studies.registry import make_robot

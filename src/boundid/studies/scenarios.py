@@ -22,14 +22,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from boundid.errors import StudyError
 from boundid.experiments.measurement import TorqueNoise
 from boundid.studies.schema import Section, read_toml
-
-if TYPE_CHECKING:  # boundid.studies.config reads the [campaign] table with read_campaign when it loads a study
-    from boundid.studies.config import StudyConfig
 
 NOISE_KINDS = ("none", "gaussian", "uniform", "bounded_outliers")
 
@@ -44,8 +40,9 @@ class Scenario:
     encoder_counts_per_rev: int | None = None
     structural_error: float | None = None
 
-    def apply(self, cfg: StudyConfig) -> StudyConfig:
-        """The study with this scenario's experiment (``dataclasses.replace``; nothing else changes)."""
+    def apply(self, cfg):
+        """The study ``cfg`` (a :class:`~boundid.studies.config.StudyConfig`, which imports this module to
+        read its [campaign] table) with this scenario's experiment (``dataclasses.replace``; nothing else changes)."""
         if cfg.experiment.source != "simulate":
             raise StudyError(f"{cfg.file}: a Monte Carlo campaign re-draws the noise of a simulated experiment; "
                              "this study reads measured data (experiment.source = 'measured').")
@@ -119,8 +116,9 @@ def read_campaign(sec: Section, labels: list[str]) -> CampaignSpec:
     return CampaignSpec(replicates, scenarios, estimators)
 
 
-def load_campaign(cfg: StudyConfig) -> CampaignSpec:
-    """Parse the ``[campaign]`` table of ``cfg.file``; StudyError naming file and key on bad input."""
+def load_campaign(cfg) -> CampaignSpec:
+    """Parse the ``[campaign]`` table of ``cfg.file`` (``cfg`` a StudyConfig); StudyError naming file and key on
+    bad input."""
     path = Path(cfg.file)
     data = read_toml(path)
     if "campaign" not in data:
