@@ -106,3 +106,15 @@ def as_spd(S, name: str, n: int | None = None) -> np.ndarray:
             "or drop the degenerate directions."
         ) from None
     return S
+
+
+class NumbersOption(float):
+    """The default of an option (a field of a robot's ``Options`` dataclass) that takes one number or a
+    list of numbers (e.g. one per joint, the length checked by the owner); its value is the number used
+    when the option is absent. A study file's options table accepts either form
+    (:meth:`boundid.studies.schema.Section.options`)."""
+
+
+class TablesOption(tuple):
+    """The default of an option that takes a list of tables (TOML inline tables ``{key = value, ...}``),
+    each checked by the option's owner; the default is the empty list."""

@@ -117,11 +117,15 @@ class RobotModel(ABC):
         return tuple(self.param_names)
 
     # -- abilities (defaults; a robot overrides what it offers) ----------------------------
-    def export_identified(self, theta, folder, base=None) -> list:
+    def export_identified(self, theta, folder, base=None, estimate: str = "identified parameters",
+                          cov=None) -> list:
         """Write identified parameters theta (p,) in the robot's own description formats into
-        ``folder`` (a URDF robot: a copy of its URDF and YAML/CSV tables, with the base parameters
-        ``base`` (:class:`boundid.models.base_parameters.BaseParameters`) beside); returns the paths
-        written (default: none, the study's tables already hold theta)."""
+        ``folder`` (a URDF robot: a copy of its URDF that simulators load, an MJCF fragment of the
+        joints and YAML/CSV tables, with the base parameters ``base``
+        (:class:`boundid.models.base_parameters.BaseParameters`) beside); ``estimate`` says what theta
+        is, ``cov`` (p, p) is its covariance, for a projection onto the physical set when theta
+        cannot be written as it is. Returns the paths written (default: none, the study's tables
+        already hold theta)."""
         return []
 
     @property

@@ -219,10 +219,12 @@ class BaseParameterModel(RobotModel):
     def zoh_stepper(self):
         return self.robot.zoh_stepper()
 
-    def export_identified(self, theta, folder, base=None) -> list:
-        """The robot's export of :meth:`standard` (theta) with these base parameters: the dependent
-        standard parameters keep the robot's true (e.g. URDF) values, the kept ones carry theta."""
-        return self.robot.export_identified(self.standard(theta), folder, base=self.base)
+    def export_identified(self, theta, folder, base=None, estimate: str = "identified parameters",
+                          cov=None) -> list:
+        """The robot's export of beta = theta (r,) as :meth:`standard` (theta) and ``self.base`` (any
+        standard vector with these base parameters: the robot chooses the one it writes); ``cov``
+        (r, r) is theta's covariance."""
+        return self.robot.export_identified(self.standard(theta), folder, base=self.base, estimate=estimate, cov=cov)
 
     def workspace_excursion(self, q, margin: float = 0.0) -> float:
         return self.robot.workspace_excursion(q, margin)

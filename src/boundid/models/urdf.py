@@ -16,8 +16,15 @@ Parameters theta (p,), in this order:
     fv_j    viscous friction
     fc_j    Coulomb friction (sign(qd) in the identification model)
     off_j   torque offset, only with ``with_offset=True``
+    Iam_m, fvm_m, fsm_m    per coupled motor m (``coupled_motors``, :class:`CoupledMotor`): its rotor
+        inertia, viscous and Coulomb friction, joint-side scaled, acting on its velocity seen at its
+        own joint w_m = r_m . qd, r_m = R[m, :] / R[m, m] the motor's row of the transmission
+        q_m = R q (the TX40's motor 6: r = e5 + e6, w = qd5 + qd6); by virtual work (tau = R^T tau_m)
 
     tau = M(q) qdd + C(q, qd) qd + g(q) + Ia qdd + fv qd + fc sign(qd) + off
+          + sum_m r_m (Iam_m r_m . qdd + fvm_m w_m + fsm_m sign(w_m))
+
+so the coupled motors add sum_m Iam_m r_m r_m^T to the mass matrix and their friction to the bias.
 
 Regressors (all batched over N samples, shapes as in :mod:`boundid.models.base`):
 
@@ -36,13 +43,17 @@ Regressors (all batched over N samples, shapes as in :mod:`boundid.models.base`)
   (turning joint j by e moves the bodies i >= j rigidly by the twist e S_j; the derivative of
   1/2 sum v_i^T I_i v_i is then -(S_j x v_j)^T h_j). dK/dq = C^T qd for pinocchio's Coriolis matrix,
   checked in tests/test_urdf.py, with finite differences of the kinetic energy;
-- energy ``pin.computeKineticEnergyRegressor`` + ``computePotentialEnergyRegressor`` (+ Ia qd^2 / 2),
-  potential energy U = -sum_i m_i g . c_i, zero at the world origin;
+- energy ``pin.computeKineticEnergyRegressor`` + ``computePotentialEnergyRegressor`` (+ Ia qd^2 / 2
+  + Iam_m w_m^2 / 2), potential energy U = -sum_i m_i g . c_i, zero at the world origin;
 - friction power qd^T (fv qd + fc sign qd + off) = fv qd^2 + fc |qd| + off qd (the offset's power
-  is not dissipated, but it belongs to the same side of the power balance).
+  is not dissipated, but it belongs to the same side of the power balance), + fvm_m w_m^2 + fsm_m |w_m|
+  (qd^T r_m = w_m).
+- a coupled motor's columns: Iam_m r_m (r_m . qdd) in Y, r_m w_m in Ya; fvm_m r_m w_m and fsm_m
+  r_m sign(w_m) in Y and Yb (its inertia is constant: no dK/dq).
 
-Mass matrix by CRBA, bias torque by RNEA at zero acceleration, forward dynamics by ABA, each with
-pinocchio's model rebuilt from theta (the body masses must then be > 0).
+Mass matrix by CRBA, bias torque by RNEA at zero acceleration, forward dynamics by ABA (with coupled
+motors: solve(M + sum_m Iam_m r_m r_m^T, tau - bias), the added inertia not being diagonal), each
+with pinocchio's model rebuilt from theta (the body masses must then be > 0).
 """
 
 from __future__ import annotations
@@ -60,14 +71,17 @@ from boundid._validation import as_float_array, as_vector
 from boundid.errors import InputError, SolverError
 from boundid.models.base import RobotModel, coulomb, per_state, rk4_hold
 from boundid.models.limits import JointLimits
-from boundid.models.urdf_export import link_inertial_parameters, write_parameters, write_urdf
-from boundid.models.urdf_options import EXAMPLE_ROBOTS, UrdfOptions
+from boundid.models.urdf_export import export_files, link_inertial_parameters
+from boundid.models.urdf_options import EXAMPLE_ROBOTS, CoupledMotor, UrdfOptions
 from boundid.sets.constraints import PhysicalConstraints, constraints, linear_rows
 from boundid.sets.constraints import pseudo_inertia as pseudo_inertia_lmi
 
 #: Names of the 10 inertial parameters of a body, pinocchio's order (suffixed with the joint number).
 INERTIAL_NAMES = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 INERTIAL_UNITS = ("kg", "kg m", "kg m", "kg m", "kg m^2", "kg m^2", "kg m^2", "kg m^2", "kg m^2", "kg m^2")
+
+#: Parameter blocks of the coupled motors, one entry per motor (the others are one entry per joint).
+MOTOR_KEYS = ("Iam", "fvm", "fsm")
 
 #: Rule for the acceleration limit URDFs do not carry: this many times the velocity limit, per
 #: second (the velocity limit is reached from rest in 0.2 s). Override with ``acceleration_limit``.
@@ -102,17 +116,39 @@ def resolve_urdf(source: str | Path) -> tuple[Path, tuple[str, ...] | None, str]
                      f"arms {sorted(EXAMPLE_ROBOTS)}.")
 
 
-def _per_joint(x, what: str, n: int, default, signed: bool = False) -> np.ndarray:
-    """(n,) values from a scalar or one per joint (``default`` when x is None); >= 0 unless ``signed``."""
+def _per_joint(x, what: str, n: int, default, signed: bool = False, finite: bool = True) -> np.ndarray:
+    """(n,) values from a scalar or one per joint (``default`` when x is None); >= 0 unless ``signed``,
+    finite unless not ``finite`` (a limit may be inf). InputError naming ``what`` and the count."""
     if x is None:
         return np.asarray(default, float).copy()
     v = as_float_array(x, what)
     if v.ndim == 0:
         v = np.full(n, float(v))
-    if v.shape != (n,) or np.any(np.isnan(v)) or (not signed and np.any(v < 0)):
-        raise InputError(f"{what} must be one value or one per joint ({n}), {'' if signed else '>= 0, '}"
-                         f"got {x!r}.")
+    if v.shape != (n,):
+        got = f"{v.shape[0]} numbers" if v.ndim == 1 else f"shape {v.shape}"
+        raise InputError(f"{what} must be one number or a list of {n} (one per joint), got {got}: {x!r}.")
+    bad = np.isnan(v) | (np.isinf(v) if finite else False) | (False if signed else v < 0)
+    if np.any(bad):
+        j = int(np.flatnonzero(bad)[0])
+        rule = ("finite" if finite else "not NaN") + ("" if signed else " and >= 0")
+        raise InputError(f"{what} must be {rule}; entry {j + 1} of {n} is {v[j]:g}.")
     return v.copy()
+
+
+def _coupled_motors(motors, n: int) -> tuple[CoupledMotor, ...]:
+    """:class:`CoupledMotor` of each entry (a CoupledMotor, or a mapping: a study file's table), checked
+    against the n joints of the model: joint numbers within 1..n, one entry per motor."""
+    out = tuple(m if isinstance(m, CoupledMotor) else CoupledMotor.from_table(m, k)
+                for k, m in enumerate(motors or (), start=1))
+    for m in out:
+        if max(m.joints) > n:
+            raise InputError(f"coupled motor {m.motor}: joints {list(m.joints)} must be joint numbers in 1..{n} "
+                             "(the model's joint order).")
+    owners = [m.motor for m in out]
+    if len(set(owners)) != len(owners):
+        raise InputError(f"coupled_motors names motor(s) {sorted({o for o in owners if owners.count(o) > 1})} twice: "
+                         "give one entry per motor.")
+    return out
 
 
 def _joint_kind(jmodel) -> str:
@@ -188,6 +224,8 @@ class UrdfRobot(RobotModel):
         <dynamics damping=... friction=...>, 0 when absent)
     with_armature, armature : add the armature parameters Ia_j, true values [kg m^2] (default 0)
     with_offset, offset : add the torque offsets off_j, true values [N m] (default 0)
+    coupled_motors : motors that turn with several joints, :class:`CoupledMotor` or tables {motor,
+        joints, ratios, armature, viscous, coulomb}: add Iam_m, fvm_m, fsm_m per motor (module docstring)
     gravity : (3,) m/s^2 in the base frame (default (0, 0, -9.81))
     velocity_limit, acceleration_limit : (n,) or scalar overrides of the URDF velocity limit and of
         the acceleration rule (:data:`ACCELERATION_PER_VELOCITY` x velocity limit)
@@ -203,17 +241,22 @@ class UrdfRobot(RobotModel):
 
     @classmethod
     def from_options(cls, options: UrdfOptions) -> UrdfRobot:
-        """The robot of a study's robot.options (its standard parameters; see :func:`urdf_robot`)."""
-        if min(options.viscous, options.coulomb, options.armature, options.velocity_limit) < 0:
-            raise InputError(f"viscous, coulomb, armature and velocity_limit must be >= 0, got {options.viscous}, "
-                             f"{options.coulomb}, {options.armature}, {options.velocity_limit}.")
-        return cls(options.source, joints=options.joints or None, viscous=options.viscous or None,
-                   coulomb=options.coulomb or None, with_armature=options.armature > 0,
-                   armature=options.armature or None, velocity_limit=options.velocity_limit or None)
+        """The robot of a study's robot.options (its standard parameters): a per-joint option is "not
+        given" when it is the number 0 (a list is used as given); a given armature or offset adds its
+        parameters."""
+        def given(x):
+            return None if isinstance(x, int | float) and x == 0 else x
+
+        armature, offset = given(options.armature), given(options.offset)
+        return cls(options.source, joints=options.joints or None, viscous=given(options.viscous),
+                   coulomb=given(options.coulomb), with_armature=armature is not None, armature=armature,
+                   with_offset=offset is not None, offset=offset, velocity_limit=given(options.velocity_limit),
+                   coupled_motors=options.coupled_motors)
 
     def __init__(self, source: str | Path, joints: Sequence[str] | None = None, *, viscous=None, coulomb=None,
                  with_armature: bool = False, armature=None, with_offset: bool = False, offset=None,
-                 gravity=None, velocity_limit=None, acceleration_limit=None, name: str | None = None):
+                 coupled_motors=(), gravity=None, velocity_limit=None, acceleration_limit=None,
+                 name: str | None = None):
         path, default_joints, default_name = resolve_urdf(source)
         self.urdf_path = path
         self._model, chain = _load_chain(path, default_joints if joints is None else joints)
@@ -242,25 +285,37 @@ class UrdfRobot(RobotModel):
         ia = _per_joint(armature, "armature", n, np.zeros(n))
         off = _per_joint(offset, "offset", n, np.zeros(n), signed=True)
         model.armature = ia.copy()
+        self.coupled_motors = _coupled_motors(coupled_motors, n)
+        # r_m (k, n): each coupled motor's row of R over its ratio on its own joint
+        self._motor_rows = np.zeros((len(self.coupled_motors), n))
+        for c, m in enumerate(self.coupled_motors):
+            own = m.ratios[m.joints.index(m.motor)]
+            for j, ratio in zip(m.joints, m.ratios, strict=True):
+                self._motor_rows[c, j - 1] = ratio / own
 
-        # parameter layout: [10 n inertial | Ia | fv | fc | off]
+        # parameter layout: [10 n inertial | Ia | fv | fc | off | Iam | fvm | fsm]
         names, units = [], []
         for j in range(1, n + 1):
             names += [f"{s}{j}" for s in INERTIAL_NAMES]
             units += list(INERTIAL_UNITS)
-        blocks = [("Ia", self.with_armature, ("kg", "kg m^2")), ("fv", True, ("N s/m", "N m s/rad")),
-                  ("fc", True, ("N", "N m")), ("off", self.with_offset, ("N", "N m"))]
+        each, motors = list(range(1, n + 1)), [m.motor for m in self.coupled_motors]  # joint numbers of a block
+        inertia, viscous_, coulomb_ = ("kg", "kg m^2"), ("N s/m", "N m s/rad"), ("N", "N m")
+        blocks = [("Ia", self.with_armature, each, inertia), ("fv", True, each, viscous_), ("fc", True, each, coulomb_),
+                  ("off", self.with_offset, each, coulomb_), ("Iam", bool(motors), motors, inertia),
+                  ("fvm", bool(motors), motors, viscous_), ("fsm", bool(motors), motors, coulomb_)]
         self._slices, start = {}, 10 * n
-        for key, on, (u_pr, u_rev) in blocks:
+        for key, on, numbers, (u_pr, u_rev) in blocks:
             if on:
-                self._slices[key] = slice(start, start + n)
-                start += n
-                names += [f"{key}{j}" for j in range(1, n + 1)]
-                units += [u_pr if pr else u_rev for pr in prismatic]
+                self._slices[key] = slice(start, start + len(numbers))
+                start += len(numbers)
+                names += [f"{key}{j}" for j in numbers]
+                units += [u_pr if prismatic[j - 1] else u_rev for j in numbers]
         self.param_names, self.param_units = tuple(names), tuple(units)
         inertial = np.concatenate([model.inertias[j].toDynamicParameters() for j in range(1, n + 1)])
-        values = {"Ia": ia, "fv": fv, "fc": fc, "off": off}
-        self.theta_true = np.concatenate([inertial] + [values[k] for k in self._slices])
+        values = {"Ia": ia, "fv": fv, "fc": fc, "off": off,
+                  "Iam": [m.armature for m in self.coupled_motors], "fvm": [m.viscous for m in self.coupled_motors],
+                  "fsm": [m.coulomb for m in self.coupled_motors]}
+        self.theta_true = np.concatenate([inertial] + [np.asarray(values[k], float) for k in self._slices])
         self.theta_prior = self.theta_true.copy()
         self.limits = self._read_limits(velocity_limit, acceleration_limit)
 
@@ -269,7 +324,7 @@ class UrdfRobot(RobotModel):
         self._still.gravity = pin.Motion.Zero()
         self._still_data = self._still.createData()
         self._dyn_key: np.ndarray | None = None
-        self._dyn: tuple[pin.Model, object] | None = None
+        self._dyn: tuple[pin.Model, object, np.ndarray | None] | None = None
         self._fast_theta: list[float] | None = None
 
     # -- physical consistency -------------------------------------------------------------
@@ -290,8 +345,9 @@ class UrdfRobot(RobotModel):
             of inertia of a symmetric body), s = the largest |value| of its group in the same body
             (mass, first moments, inertias); a group all 0 in the URDF gets no bound.
         Always: friction dissipates, fv_j qd^2 + fc_j |qd| >= 0 for every qd iff fv_j, fc_j >= 0;
-        the armature Ia_j (motor inertia reflected through the gear, >= 0) when identified. Offsets
-        are unconstrained.
+        the armature Ia_j (motor inertia reflected through the gear, >= 0) when identified; a coupled
+        motor's Iam_m, fvm_m, fsm_m >= 0 (its rotor inertia, and friction dissipating for every
+        motor velocity w_m). Offsets are unconstrained.
 
         ``scale`` of the result: per body a mass m (the URDF's) and a length l (the RMS distance of
         its mass from the joint frame, sqrt(tr Sigma / m)), giving m, m l, m l^2 for the mass, first
@@ -343,7 +399,10 @@ class UrdfRobot(RobotModel):
                         reasons += [f"CAD bound: the URDF value {pi[k]:.4g} +- {100 * cad:g} % of {s:.4g}"] * 2
         for key, why in (("Ia", "a motor inertia reflected through its gear: >= 0"),
                          ("fv", "viscous friction dissipates: fv qd^2 >= 0 for every qd"),
-                         ("fc", "Coulomb friction dissipates: fc |qd| >= 0 for every qd")):
+                         ("fc", "Coulomb friction dissipates: fc |qd| >= 0 for every qd"),
+                         ("Iam", "a coupled motor's rotor inertia reflected through its gear: >= 0"),
+                         ("fvm", "a coupled motor's viscous friction dissipates: fvm w^2 >= 0 for every w"),
+                         ("fsm", "a coupled motor's Coulomb friction dissipates: fsm |w| >= 0 for every w")):
             if key not in self._slices:
                 continue
             for k in range(self._slices[key].start, self._slices[key].stop):
@@ -353,7 +412,7 @@ class UrdfRobot(RobotModel):
                 rows_b.append(0.0)
                 labels.append(f"{names[k]} >= 0")
                 reasons.append(why)
-        for key in ("Ia", "fv", "fc", "off"):
+        for key in ("Ia", "fv", "fc", "off", *MOTOR_KEYS):
             if key in self._slices:
                 sl = self._slices[key]
                 scale[sl] = np.where(ref[sl] != 0, np.abs(ref[sl]), 1.0)
@@ -379,8 +438,9 @@ class UrdfRobot(RobotModel):
         unset = (np.abs(lo) > 1e10) | (np.abs(hi) > 1e10) | ((lo == 0) & (hi == 0))  # urdfdom's 0, 0: not given
         lo, hi = np.where(unset, -np.inf, lo), np.where(unset, np.inf, hi)
         vel = model.velocityLimit[iv].astype(float)
-        vel = _per_joint(velocity_limit, "velocity_limit", n, np.where(vel > 0, vel, np.inf))
-        acc = _per_joint(acceleration_limit, "acceleration_limit", n, ACCELERATION_PER_VELOCITY * vel)
+        vel = _per_joint(velocity_limit, "velocity_limit", n, np.where(vel > 0, vel, np.inf), finite=False)
+        acc = _per_joint(acceleration_limit, "acceleration_limit", n, ACCELERATION_PER_VELOCITY * vel,
+                         finite=False)
         eff = model.effortLimit[iv].astype(float)
         return JointLimits(lo, hi, vel, acc, np.where(eff > 0, eff, np.inf))
 
@@ -393,11 +453,20 @@ class UrdfRobot(RobotModel):
         Q[:, self._idx_q[self._unbounded] + 1] = np.sin(q[:, self._unbounded])
         return Q
 
+    def _motor_velocity(self, qd: np.ndarray) -> np.ndarray:
+        """w (N, k) = qd r_m^T: each coupled motor's velocity seen at its own joint, of qd (N, n) (or of qdd)."""
+        return qd @ self._motor_rows.T
+
     def _joint_columns(self, Y: np.ndarray, cols: dict[str, np.ndarray]) -> np.ndarray:
-        """Write the per-joint columns ``cols[key]`` (N, n) into Y (N, n, p) on the diagonal of block key."""
+        """Write the columns of block ``key`` into Y (N, n, p): a per-joint block's ``cols[key]`` (N, n) on its
+        diagonal; a coupled-motor block's (N, k), one scalar x_m per motor, as the column r_m x_m."""
         j = np.arange(self.n_joints)
         for key, val in cols.items():
-            if key in self._slices:
+            if key not in self._slices:
+                continue
+            if key in MOTOR_KEYS:
+                Y[:, :, self._slices[key]] = val[:, None, :] * self._motor_rows.T
+            else:
                 Y[:, j, self._slices[key].start + j] = val
         return Y
 
@@ -413,7 +482,9 @@ class UrdfRobot(RobotModel):
         Y = self._empty(q.shape[0])
         for k in range(q.shape[0]):
             Y[k, :, :10 * n] = pin.computeJointTorqueRegressor(self._model, self._data, Q[k], qd[k], qdd[k])
-        return self._joint_columns(Y, {"Ia": qdd, "fv": qd, "fc": np.sign(qd), "off": np.ones_like(qd)})
+        w = self._motor_velocity(qd)
+        return self._joint_columns(Y, {"Ia": qdd, "fv": qd, "fc": np.sign(qd), "off": np.ones_like(qd),
+                                       "Iam": self._motor_velocity(qdd), "fvm": w, "fsm": np.sign(w)})
 
     def _kinetic_gradient(self, q, qd) -> np.ndarray:
         """dK/dq regressor, inertial block (N, n, 10 n): (v_j x S_j)^T h_j (module docstring)."""
@@ -440,18 +511,20 @@ class UrdfRobot(RobotModel):
 
     @per_state
     def momentum_regressor(self, q, qd) -> np.ndarray:
-        """Ya (N, n, p): M(q) qd = Ya theta, the gravity-free torque regressor at (q, 0, qd) (plus Ia qd)."""
+        """Ya (N, n, p): M(q) qd = Ya theta, the gravity-free torque regressor at (q, 0, qd) (plus Ia qd and
+        r_m w_m for Iam_m)."""
         (q, qd), _ = self._states(q, qd)
         Q, n = self._config(q), self.n_joints
         Y = self._empty(q.shape[0])
         zero = np.zeros(n)
         for k in range(q.shape[0]):
             Y[k, :, :10 * n] = pin.computeJointTorqueRegressor(self._still, self._still_data, Q[k], zero, qd[k])
-        return self._joint_columns(Y, {"Ia": qd})
+        return self._joint_columns(Y, {"Ia": qd, "Iam": self._motor_velocity(qd)})
 
     @per_state
     def remainder_regressor(self, q, qd) -> np.ndarray:
-        """Yb (N, n, p) = g(q) - dK/dq + friction (+ offset), so that Y theta = d/dt(Ya theta) + Yb theta."""
+        """Yb (N, n, p) = g(q) - dK/dq + friction (+ offset, + the coupled motors' friction), so that
+        Y theta = d/dt(Ya theta) + Yb theta."""
         (q, qd), _ = self._states(q, qd)
         Q, n = self._config(q), self.n_joints
         Y = self._empty(q.shape[0])
@@ -459,34 +532,40 @@ class UrdfRobot(RobotModel):
         zero = np.zeros(n)
         for k in range(q.shape[0]):
             Y[k, :, :10 * n] += pin.computeJointTorqueRegressor(self._model, self._data, Q[k], zero, zero)
-        return self._joint_columns(Y, {"fv": qd, "fc": np.sign(qd), "off": np.ones_like(qd)})
+        w = self._motor_velocity(qd)
+        return self._joint_columns(Y, {"fv": qd, "fc": np.sign(qd), "off": np.ones_like(qd), "fvm": w,
+                                       "fsm": np.sign(w)})
 
     @per_state
     def energy_regressor(self, q, qd) -> np.ndarray:
-        """phi_H (N, p): H = K + U = phi_H theta (pinocchio's kinetic and potential energy regressors)."""
+        """phi_H (N, p): H = K + U = phi_H theta (pinocchio's kinetic and potential energy regressors, + Ia qd^2 / 2
+        + Iam_m w_m^2 / 2)."""
         (q, qd), _ = self._states(q, qd)
         Q, n = self._config(q), self.n_joints
         phi = np.zeros((q.shape[0], self.p))
         for k in range(q.shape[0]):
             phi[k, :10 * n] = (pin.computeKineticEnergyRegressor(self._model, self._data, Q[k], qd[k])
                                + pin.computePotentialEnergyRegressor(self._model, self._data, Q[k]))
-        if "Ia" in self._slices:
-            phi[:, self._slices["Ia"]] = 0.5 * qd ** 2
+        for key, val in (("Ia", qd), ("Iam", self._motor_velocity(qd))):
+            if key in self._slices:
+                phi[:, self._slices[key]] = 0.5 * val ** 2
         return phi
 
     @per_state
     def friction_power_regressor(self, qd) -> np.ndarray:
-        """phi_f (N, p): qd^T (fv qd + fc sign qd + off) = phi_f theta."""
+        """phi_f (N, p): qd^T (fv qd + fc sign qd + off) + sum_m (fvm_m w_m^2 + fsm_m |w_m|) = phi_f theta."""
         (qd,), _ = self._states(qd, names=("qd",))
         phi = np.zeros((qd.shape[0], self.p))
-        for key, val in (("fv", qd ** 2), ("fc", np.abs(qd)), ("off", qd)):
+        w = self._motor_velocity(qd)
+        for key, val in (("fv", qd ** 2), ("fc", np.abs(qd)), ("off", qd), ("fvm", w ** 2), ("fsm", np.abs(w))):
             if key in self._slices:
                 phi[:, self._slices[key]] = val
         return phi
 
     # -- dynamics with pinocchio's algorithms -------------------------------------------------
-    def _dynamics(self, theta) -> tuple[pin.Model, object]:
-        """pinocchio model and data with the inertias and armature of theta (cached for the last theta)."""
+    def _dynamics(self, theta) -> tuple[pin.Model, object, np.ndarray | None]:
+        """pinocchio model and data with the inertias and armature of theta, and the coupled motors' inertia
+        A = sum_m Iam_m r_m r_m^T (n, n) [kg m^2] (None without coupled motors); cached for the last theta."""
         th = self._theta(theta)
         if self._dyn_key is not None and np.array_equal(th, self._dyn_key):
             return self._dyn
@@ -499,72 +578,95 @@ class UrdfRobot(RobotModel):
                                  "CRBA/RNEA/ABA need positive masses. Use the regressor (Y theta) for such a theta.")
             model.inertias[j] = pin.Inertia.FromDynamicParameters(pi)
         model.armature = th[self._slices["Ia"]].copy() if "Ia" in self._slices else np.zeros(n)
-        self._dyn_key, self._dyn = th.copy(), (model, model.createData())
+        rows = self._motor_rows
+        A = rows.T @ (th[self._slices["Iam"], None] * rows) if "Iam" in self._slices else None
+        self._dyn_key, self._dyn = th.copy(), (model, model.createData(), A)
         return self._dyn
 
     def _joint_torque(self, qd: np.ndarray, th: np.ndarray, coulomb_width: float) -> np.ndarray:
-        """Friction and offset torques (N, n) for parameters th."""
+        """Friction and offset torques (N, n) for parameters th, the coupled motors' friction
+        sum_m r_m (fvm_m w_m + fsm_m sign(w_m)) included (tanh(w / width) for sign with a width)."""
         tau = th[self._slices["fv"]] * qd + th[self._slices["fc"]] * coulomb(qd, coulomb_width)
         if "off" in self._slices:
             tau = tau + th[self._slices["off"]]
+        if "fvm" in self._slices:
+            w = self._motor_velocity(qd)
+            motor = th[self._slices["fvm"]] * w + th[self._slices["fsm"]] * coulomb(w, coulomb_width)  # (N, k)
+            tau = tau + motor @ self._motor_rows
         return tau
+
+    @staticmethod
+    def _accelerate(model, data, A, Q, v, u) -> np.ndarray:
+        """qdd (n,) for torque u (n,) net of friction at configuration Q, velocity v: ABA, or with coupled
+        motors (A, their inertia) solve(M(q) + A, u - C(q, qd) qd - g(q)), M by CRBA."""
+        if A is None:
+            return pin.aba(model, data, Q, v, u).copy()
+        U = np.triu(pin.crba(model, data, Q))
+        return np.linalg.solve(U + np.triu(U, 1).T + A, u - pin.nonLinearEffects(model, data, Q, v))
 
     @per_state
     def mass_matrix(self, q, theta=None) -> np.ndarray:
-        """M(q) (N, n, n) by CRBA (armature on the diagonal)."""
+        """M(q) (N, n, n) by CRBA (armature on the diagonal), + sum_m Iam_m r_m r_m^T with coupled motors."""
         (q,), _ = self._states(q, names=("q",))
-        model, data = self._dynamics(theta)
+        model, data, A = self._dynamics(theta)
         Q = self._config(q)
         M = np.empty((q.shape[0], self.n_joints, self.n_joints))
         for k in range(q.shape[0]):
             U = np.triu(pin.crba(model, data, Q[k]))
             M[k] = U + np.triu(U, 1).T
-        return M
+        return M if A is None else M + A
 
     @per_state
     def bias_torque(self, q, qd, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
-        """C(q, qd) qd + g(q) (RNEA at zero acceleration) + friction (+ offset), (N, n)."""
+        """C(q, qd) qd + g(q) (RNEA at zero acceleration) + friction (+ offset, + the coupled motors'
+        friction), (N, n)."""
         (q, qd), _ = self._states(q, qd)
         th = self._theta(theta)
-        model, data = self._dynamics(th)
+        model, data, _ = self._dynamics(th)
         Q = self._config(q)
         b = np.array([pin.nonLinearEffects(model, data, Q[k], qd[k]).copy() for k in range(q.shape[0])])
         return b.reshape(q.shape) + self._joint_torque(qd, th, coulomb_width)
 
     @per_state
     def forward_dynamics(self, q, qd, tau, theta=None, coulomb_width: float = 0.0) -> np.ndarray:
-        """qdd (N, n) by ABA on tau minus friction (and offset)."""
+        """qdd (N, n) by ABA on tau minus friction (and offset); with coupled motors, solve(M + A, tau - bias)."""
         (q, qd, tau), _ = self._states(q, qd, tau, names=("q", "qd", "tau"))
         th = self._theta(theta)
-        model, data = self._dynamics(th)
+        model, data, A = self._dynamics(th)
         Q, u = self._config(q), tau - self._joint_torque(qd, th, coulomb_width)
-        return np.array([pin.aba(model, data, Q[k], qd[k], u[k]).copy() for k in range(q.shape[0])]).reshape(q.shape)
+        return np.array([self._accelerate(model, data, A, Q[k], qd[k], u[k]) for k in range(q.shape[0])]).reshape(
+            q.shape)
 
     def fast_acceleration(self, q, qd, u, theta, coulomb_width: float) -> list[float]:
-        """qdd for ONE state (plain sequences), no input checks: ABA, for the simulator's inner loop."""
+        """qdd for ONE state (plain sequences), no input checks: ABA (with coupled motors, the solve of
+        :meth:`forward_dynamics`), for the simulator's inner loop."""
         theta = list(theta)
         if theta != self._fast_theta:  # the simulator passes the same values at every call: cache their parts
             th = np.asarray(theta, float)
-            model, data = self._dynamics(th)
+            model, data, A = self._dynamics(th)
             off = th[self._slices["off"]] if "off" in self._slices else np.zeros(self.n_joints)
             self._fast_theta = theta
-            self._fast = (model, data, th[self._slices["fv"]].tolist(), th[self._slices["fc"]].tolist(), off.tolist())
-        model, data, fv, fc, off = self._fast
+            self._fast = (model, data, A, th, th[self._slices["fv"]].tolist(), th[self._slices["fc"]].tolist(),
+                          off.tolist())
+        model, data, A, th, fv, fc, off = self._fast
+        Q = self._config(np.array([q], float))[0] if self._unbounded.any() else np.array(q, float)
+        vel = np.array(qd, float)
+        if A is not None:
+            u_net = np.asarray(u, float) - self._joint_torque(vel[None], th, coulomb_width)[0]
+            return self._accelerate(model, data, A, Q, vel, u_net).tolist()
         w = coulomb_width
         rhs = [ui - b * v - c * (math.tanh(v / w) if w > 0 else (v > 0) - (v < 0)) - o
                for ui, v, b, c, o in zip(u, qd, fv, fc, off, strict=True)]
-        Q = self._config(np.array([q], float))[0] if self._unbounded.any() else np.array(q, float)
-        return pin.aba(model, data, Q, np.array(qd, float), np.array(rhs)).tolist()
+        return pin.aba(model, data, Q, vel, np.array(rhs)).tolist()
 
     # -- abilities -------------------------------------------------------------------------
-    def export_identified(self, theta, folder, base=None) -> list[Path]:
-        """A copy of the URDF with the inertias and friction of theta (p,), and theta as YAML and CSV
-        (with the base parameters K theta when ``base`` is given); see :mod:`boundid.models.urdf_export`."""
-        folder = Path(folder)
-        stem = f"{self.name}_identified"
-        return [write_urdf(self, theta, folder / f"{stem}.urdf"),
-                write_parameters(self, theta, folder / f"{stem}.yaml", base),
-                write_parameters(self, theta, folder / f"{stem}.csv", base)]
+    def export_identified(self, theta, folder, base=None, estimate: str = "identified parameters",
+                          cov=None) -> list[Path]:
+        """A copy of the URDF that pinocchio and MuJoCo load, an MJCF fragment with the joints' armature
+        and friction, and YAML/CSV tables, of the estimate theta (p,) or, when it has no physically
+        consistent standard vector, of its projection (needs ``cov``; theta then goes to the tables
+        only); see :func:`boundid.models.urdf_export.export_files`."""
+        return export_files(self, theta, folder, base, estimate, cov)
 
     @property
     def experiments(self) -> tuple[str, ...]:
@@ -576,18 +678,20 @@ class UrdfRobot(RobotModel):
         return self.limits.middle()
 
     def zoh_stepper(self):
-        """RK4 under a held torque with pinocchio's ABA on the true parameters, ``substeps`` steps per
-        hold interval; friction as in :meth:`forward_dynamics` (tanh of width ``coulomb_width``)."""
-        model, data = self._dynamics(self.theta_true)
+        """RK4 under a held torque with pinocchio's ABA on the true parameters (with coupled motors, the
+        solve of :meth:`forward_dynamics`), ``substeps`` steps per hold interval; friction as in
+        :meth:`forward_dynamics` (tanh of width ``coulomb_width``)."""
+        model, data, A = self._dynamics(self.theta_true)
         th = self.theta_true
         fv, fc = th[self._slices["fv"]], th[self._slices["fc"]]
         off = th[self._slices["off"]] if "off" in self._slices else np.zeros(self.n_joints)
         unbounded = self._unbounded.any()
 
         def acceleration(q, v, tau, width):
-            friction = fv * v + fc * coulomb(v, width) + off
+            friction = (fv * v + fc * coulomb(v, width) + off if A is None
+                        else self._joint_torque(v[None], th, width)[0])
             Q = self._config(q[None])[0] if unbounded else q
-            return pin.aba(model, data, Q, v, tau - friction)
+            return self._accelerate(model, data, A, Q, v, tau - friction)
 
         def step(q, qd, tau, dt, substeps, coulomb_width, hint):
             q, qd = rk4_hold(lambda q_, v_: acceleration(q_, v_, tau, coulomb_width), q, qd, dt, substeps)

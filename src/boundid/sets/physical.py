@@ -18,7 +18,7 @@ How. With linear constraints and no lift, P_phys is a polytope: the LP layer sol
 (:class:`~boundid.sets.polytope.Polytope` with the constraints as its ``halfspaces``, the
 simplex of [refs §LP], constraint generation, vertex certificate). Otherwise (cones, LMIs, a lift) each
 optimum is a conic program solved by Clarabel [Clarabel] through cvxpy
-(:mod:`boundid.sets._conic`) by constraint generation over the strips, in the box frame of the
+(:mod:`boundid.sets.conic`) by constraint generation over the strips, in the box frame of the
 plain polytope (theta = origin + scale * z, P spanning [-1, 1] along every z_j; unscaled, the
 solver fails). P's LP bounding box (widened by 1e-7 of its half-widths) is added to every conic
 program: it contains P_phys, so it changes nothing but keeps every working set bounded.
@@ -27,7 +27,7 @@ Certificates. Every optimal point (and the centre, and the consistency minimiser
 against every strip on the original data, the prior box and every constraint: the largest
 violation, as a distance in the frame (units of P's half-widths), must be <= PRIMAL_TOL, else
 SolverError. Without a lift the bounds are also *certified from outside*: the Lagrangian bound of
-:mod:`boundid.sets._conic` over P's LP box, computed from the solver's multipliers, is a proven
+:mod:`boundid.sets.conic` over P's LP box, computed from the solver's multipliers, is a proven
 lower bound of each minimum (upper bound of each maximum); ``lo``/``hi`` are those proven values
 and the gap to the attained ones must stay below GAP_TOL of the half-width. With a lift the
 standard parameters the data cannot see are unbounded (a heavy body on the first joint's axis
@@ -49,8 +49,8 @@ import numpy as np
 
 from boundid._validation import as_float_array, as_matrix, as_regression, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
-from boundid.sets._conic import ConicProblem, InfeasibleProblem, Pool
-from boundid.sets._conic import _solve as _solve_conic
+from boundid.sets.conic import ConicProblem, InfeasibleProblem, Pool
+from boundid.sets.conic import solve as solve_conic
 from boundid.sets.constraints import PhysicalConstraints
 from boundid.sets.ellipsoid import Ellipsoid
 from boundid.sets.polytope import Bounds, Polytope
@@ -644,7 +644,7 @@ def physical_margin(constraints: PhysicalConstraints, theta) -> tuple[float, np.
         parts.append(0.5 * (M + M.T) - s * np.eye(k) >> 0)
     prob = cp.Problem(cp.Maximize(s), parts)
     try:
-        _solve_conic(prob, "physical margin")
+        solve_conic(prob, "physical margin")
     except InfeasibleProblem:
         raise SolverError("physical margin: no standard parameters x give K x = theta; theta is not in the "
                           "range of the lift (a wrong base-parameter vector?).") from None
@@ -695,7 +695,7 @@ class ConstrainedEllipsoid:
     model's physical set, seen through a selector S (q, p) (default identity; rows of the identity
     for a projection). A ConvexSet: intervals and support by one SOCP/SDP per direction (Clarabel,
     in E's unit-ball coordinates theta = c + L u, |u| <= 1, where every variable is in [-1, 1]: the
-    dual bound of :mod:`boundid.sets._conic` then proves each support value when not lifted);
+    dual bound of :mod:`boundid.sets.conic` then proves each support value when not lifted);
     contains by one feasibility program; log_volume is NaN (not computed).
     """
 
@@ -839,7 +839,7 @@ class ConstrainedEllipsoid:
             parts.append(0.5 * (M + M.T) >> 0)
         pr = cp.Problem(cp.Minimize(t), parts)
         try:
-            _solve_conic(pr, "ellipsoid ∩ physical set membership")
+            solve_conic(pr, "ellipsoid ∩ physical set membership")
         except InfeasibleProblem:
             return False
         return float(t.value) <= 1.0 + 1e-9

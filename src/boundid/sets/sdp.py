@@ -29,8 +29,8 @@ from scipy.spatial import ConvexHull, QhullError
 
 from boundid._validation import as_float_array, as_matrix, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
-from boundid.sets._conic import CLARABEL_DENSE_LINALG, CLARABEL_LINALG
 from boundid.sets._mvee import mvee_dual
+from boundid.sets.conic import CLARABEL_DENSE_LINALG, CLARABEL_LINALG
 from boundid.sets.ellipsoid import Ellipsoid
 from boundid.sets.polytope import LP_TOL, MAX_VERTEX_DIM, Polytope
 

@@ -14,7 +14,8 @@ conic program by Clarabel otherwise):
   widths, and (simulated data) whether the truth lies in the physical interval;
 * per statistical estimate (OLS, WLS, RLS, Kalman): the physical margin of its centre
   (:func:`boundid.sets.physical.physical_margin`; >= 0: consistent) and the most violated
-  constraint (not named for lifted constraints: base parameters of standard ones).
+  constraint (:func:`most_violated`; for base parameters of standard ones, at the standard
+  parameters that violate the constraints least).
 
 A failure (empty physical set, solver failure) is returned as ``error``, never replaced.
 """
@@ -29,6 +30,7 @@ import pandas as pd
 
 from boundid.errors import InfeasibleDataError, SolverError
 from boundid.estimators.estimate import Estimate
+from boundid.sets.conic import ConicProblem
 from boundid.sets.constraints import PhysicalConstraints
 from boundid.sets.physical import PhysicalBounds, PhysicalSet, physical_margin
 from boundid.sets.polytope import Polytope
@@ -39,7 +41,8 @@ class PhysicalResult:
     """intervals : one row per parameter: plain_lo, plain_hi, phys_lo, phys_hi, width_ratio
         (physical width / plain width), narrower (yes/no), truth_inside (simulated data; NA else)
     estimates : one row per statistical estimate: margin (>= 0: the centre is physically
-        consistent), consistent (yes/no), worst (label of the most violated constraint, "" if none)
+        consistent), consistent (yes/no), worst (the most violated constraint and its violation,
+        :func:`most_violated`; "" if none)
     bounds : the PhysicalBounds (None when ``error``); method, certificate: how they were solved
     n_constraints : number of constraint rows (linear rows, cones, LMIs)
     gamma_plain, gamma_phys : gamma* of P and of P_phys (> 1: the data contradict the bound, or physics)
@@ -67,17 +70,47 @@ class PhysicalResult:
         return int((self.intervals["narrower"] == "yes").sum()) if len(self.intervals) else 0
 
 
+def most_violated(constraints: PhysicalConstraints, theta) -> tuple[float, str]:
+    """(margin, worst) of theta (p,): its physical margin (:func:`physical_margin`, >= 0: consistent)
+    and, when < 0, the constraint violated most, "label (what it is) by v", "" otherwise.
+
+    v is the violation of :meth:`PhysicalConstraints.check`: a lower bound on the distance to the
+    constraint's set, in the units of x (exact for a linear row: 0.5 N m for a Coulomb coefficient
+    of -0.5 N m). Not lifted, x = theta and the constraint is check's worst. Lifted (theta = K x,
+    base parameters), no constraint can be judged at theta alone: x is the standard vector that
+    maximises the margin (physical_margin's), and the constraint the one of the largest violation
+    in that program's measure (rows and cones divided by their norms, LMIs after its congruence, in
+    the scaled coordinates x / scale; every x with K x = theta violates some constraint by -margin
+    or more in that measure).
+    """
+    margin, x = physical_margin(constraints, theta)
+    if margin >= 0:
+        return float(margin), ""
+    v = constraints.check(x).violations
+    if constraints.is_lifted:
+        dx = constraints.scale if constraints.scale is not None else np.ones(constraints.dim)
+        cons = constraints.in_coordinates(np.zeros(constraints.dim), np.diag(dx))
+        w = x / dx
+        probe = ConicProblem(constraints.dim)
+        for L in cons.lmis:
+            probe.add_lmi(L.F0, L.F)
+        lmis = [-np.linalg.eigvalsh(F0 + np.tensordot(w, F, axes=1))[0] for F0, F in probe.psds]
+        n_rows = cons.linear.m + len(cons.cones)
+        k = int(np.argmax(np.concatenate([cons.violations(w)[0][:n_rows], lmis])))
+    else:
+        k = int(np.argmax(v))
+    reason = constraints.reasons[k]
+    what = f" ({reason.split(':')[0]})" if ":" in reason else ""
+    return float(margin), f"{constraints.labels[k]}{what} by {v[k]:.3g}"
+
+
 def _estimate_rows(constraints: PhysicalConstraints, estimates: dict[str, Estimate]) -> pd.DataFrame:
     rows = []
     for label, est in estimates.items():
         if est.kind != "statistical":
             continue
-        margin, x = physical_margin(constraints, est.center)
-        worst = ""
-        if margin < 0 and not constraints.is_lifted:
-            chk = constraints.check(x)
-            worst = chk.labels[int(np.argmax(chk.violations))]
-        rows.append({"estimate": label, "margin": float(margin), "consistent": "yes" if margin >= 0 else "no",
+        margin, worst = most_violated(constraints, est.center)
+        rows.append({"estimate": label, "margin": margin, "consistent": "yes" if margin >= 0 else "no",
                      "worst": worst})
     return pd.DataFrame(rows, columns=["estimate", "margin", "consistent", "worst"]).set_index("estimate")
 

@@ -14,6 +14,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+from boundid._validation import NumbersOption, TablesOption
 from boundid.errors import StudyError
 
 _MISSING = object()
@@ -44,6 +45,10 @@ def read_toml(path: str | Path) -> dict:
 
 def describe_option(default: Any) -> str:
     """The type of an option as a study file writes it, from its default value ("number", "list of 4 strings")."""
+    if isinstance(default, NumbersOption):
+        return "number or list of numbers"
+    if isinstance(default, TablesOption):
+        return "list of tables"
     if isinstance(default, tuple):
         if not default:
             return "list of strings"
@@ -71,7 +76,15 @@ def _finite(value: Any) -> bool:
     return all(math.isfinite(v) for v in values if isinstance(v, builtins.float))
 
 
+def _number(value: Any) -> bool:
+    return isinstance(value, builtins.int | builtins.float) and not isinstance(value, builtins.bool)
+
+
 def _matches(value: Any, default: Any) -> bool:
+    if isinstance(default, NumbersOption):
+        return _number(value) or (isinstance(value, builtins.list) and all(_number(v) for v in value))
+    if isinstance(default, TablesOption):
+        return isinstance(value, builtins.list) and all(isinstance(v, builtins.dict) for v in value)
     if isinstance(default, builtins.bool) or isinstance(value, builtins.bool):
         return isinstance(value, builtins.bool) and isinstance(default, builtins.bool)
     if isinstance(default, builtins.float):
@@ -193,9 +206,11 @@ class Section:
     def options(self, key: str, known: Mapping[str, Any], owner: str) -> dict:
         """An options table checked against ``known`` = {option: default}: the type of each value is
         that of its default (a float default accepts integers; a tuple default is a list of that
-        length, an empty tuple a list of strings of any length); every number must be finite; lists
-        come back as tuples. Unknown options are refused, listing the known ones (the ranges are the
-        owner's to check)."""
+        length, an empty tuple a list of strings of any length; a
+        :class:`~boundid._validation.NumbersOption` a number or a list of numbers, a
+        :class:`~boundid._validation.TablesOption` a list of tables); every number must be finite (in
+        tables, the owner checks); lists come back as tuples. Unknown options are refused, listing the
+        known ones (the ranges are the owner's to check)."""
         table = self.section(key)
         out = {}
         for name, value in table.data.items():
@@ -212,8 +227,8 @@ class Section:
             if not _finite(value):
                 raise table.error(name, f"must be finite, not NaN or inf ({describe_option(default)}, default "
                                         f"{default!r}), got {value!r}.")
-            if isinstance(value, builtins.list) and default == ():
-                value = tuple(value)
+            if isinstance(value, builtins.list) and (default == () or isinstance(default, NumbersOption)):
+                value = tuple(builtins.float(v) if isinstance(default, NumbersOption) else v for v in value)
             elif isinstance(value, builtins.list):
                 value = tuple(builtins.float(v) if isinstance(d, builtins.float) else v
                               for v, d in zip(value, default, strict=True))

@@ -217,7 +217,7 @@ class ConicProblem:
             prob, v, c, parts = self._build(ws)
             for i in pending:
                 c.value = costs[i]
-                st = _solve(prob, self.what)
+                st = solve(prob, self.what)
                 solves += 1
                 X[i], status[i] = v.value, st
                 values[i] = float(costs[i] @ v.value)
@@ -240,7 +240,7 @@ class ConicProblem:
         return ConicResult(X, values, dual, status, info)
 
 
-def _solve(prob: cp.Problem, what: str) -> str:
+def solve(prob: cp.Problem, what: str) -> str:
     """Solve with Clarabel; raise SolverError unless the answer is optimal (or 'optimal_inaccurate',
     whose answer the callers verify like any other). A solve that stops on a numerical error is
     tried once more with the tolerances 1e-7 and a stronger static regularisation (RETRY)."""
