@@ -11,7 +11,7 @@ UV     := build/uv/bin/uv
 THREADS := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 NUMBA_NUM_THREADS=1
 PYTEST := $(THREADS) $(BIN)/pytest -n 2 -q
 
-.PHONY: install lock test test-all test-latest test-platforms bench report lint teach campaign test-browser mutation docs clean
+.PHONY: install lock test test-all test-latest test-platforms platforms-report bench report lint teach campaign test-browser mutation docs clean
 
 # installs exactly the lock (pip refuses a package without its pinned hash), then boundid itself, without dependencies
 $(STAMP): pyproject.toml $(LOCK)
@@ -43,6 +43,16 @@ test: $(STAMP)
 
 test-all: $(STAMP)
 	$(PYTEST) -m "not browser"
+
+# the sets and estimators tests under the OpenBLAS kernels Prescott, Nehalem, Sandybridge, Haswell and SkylakeX
+# (a kernel this CPU cannot run is skipped, saying why), then the compiled kernels' tests with numba's JIT off
+test-platforms: $(STAMP)
+	$(BIN)/python tools/platforms.py test
+
+# every study under two OpenBLAS kernels (Haswell and this CPU's own), results.csv compared: verdicts identical,
+# numbers within boundid.report.study_page.PLATFORM_RTOL; writes reports/benchmarks/platforms.md (not in CI)
+platforms-report: $(STAMP)
+	$(BIN)/python tools/platforms.py compare
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests studies/teaching studies/examples

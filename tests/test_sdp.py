@@ -149,7 +149,9 @@ def test_step_ellipsoid_centred_strip_brute_force():
 def test_step_ellipsoid_off_centre_vs_enclosing_points():
     """An ellipse cut by an oblique off-centre strip: the S-procedure step equals the minimum-volume
     ellipse around dense samples of the boundary of E ∩ strip (second algorithm); containment of
-    those samples is exact."""
+    those samples is exact. The reference may fall back to SCS (its answer made to contain every
+    point): on these ~10,000 dense, nearly collinear hull points Clarabel ends 'optimal_inaccurate' under
+    the SSE OpenBLAS kernels (Prescott, Nehalem, Sandybridge) and 'optimal' under Haswell and SkylakeX."""
     E = Ellipsoid([1.0, -0.5], [[2.0, 0.6], [0.6, 0.5]])
     w, y, e = np.array([0.7, -1.2]), 1.9, 0.6
     r = sdp.step_ellipsoid(E, w, y, e)
@@ -161,7 +163,7 @@ def test_step_ellipsoid_off_centre_vs_enclosing_points():
     lines = [(y + s * e) * w / (w @ w) + t[:, None] * d for s in (-1, 1)]
     L = np.vstack([ln[E.contains(ln)] for ln in lines])
     pts = np.vstack([B, L])
-    ref = sdp.enclosing_ellipsoid(pts)
+    ref = sdp.enclosing_ellipsoid(pts, allow_fallback=True)
     assert np.all(r.ellipsoid.contains(pts, rtol=1e-7))
     assert r.ellipsoid.log_volume() == pytest.approx(ref.ellipsoid.log_volume(), abs=2e-3)
 
