@@ -133,3 +133,21 @@ def test_root_information_form_holds_what_no_shape_matrix_can():
 def test_root_information_bad_input_is_named(X, z, sigma, match):
     with pytest.raises(InputError, match=match):
         RootInformationEllipsoid(X, z, sigma)
+
+
+def test_from_factor_is_the_shape_form_of_its_factor():
+    """Reference: Ellipsoid(c, L L^T). The factor is used as given (no second factorisation), and a
+    factor that is not lower triangular with a positive diagonal is refused."""
+    rng = np.random.default_rng(8)
+    L = np.tril(rng.normal(size=(4, 4)))
+    L[np.diag_indices(4)] = np.abs(np.diag(L)) + 0.1
+    c = rng.normal(size=4)
+    E, ref = Ellipsoid.from_factor(c, L), Ellipsoid(c, L @ L.T)
+    np.testing.assert_array_equal(E.factor, L)
+    assert E.log_volume() == pytest.approx(ref.log_volume(), rel=1e-12)
+    D = rng.normal(size=(6, 4))
+    np.testing.assert_allclose(E.supports(D), ref.supports(D), rtol=1e-12)
+    with pytest.raises(InputError, match="lower-triangular"):
+        Ellipsoid.from_factor(c, L.T)
+    with pytest.raises(InputError, match="positive"):
+        Ellipsoid.from_factor(c, -L)

