@@ -100,6 +100,7 @@ def test_verdict_flags_a_guaranteed_set_that_misses_the_polytope(ok_run):
     assert v.guarantees_verified is False and not v.ok
     assert "guarantees NOT verified: OBE-factorized" in v.line
     measured = replace(r, config=replace(r.config, experiment=replace(r.config.experiment, source="measured")))
-    assert "truth unknown (measured data); the data respect the bound" in run_verdict(measured).line
+    assert "truth unknown (measured data): e_max = " in run_verdict(measured).line
+    assert "what follows holds only if every row's error is within it" in run_verdict(measured).line
     failed = run_verdict(replace(r, failures=[Failure("estimator", f"X{k}", "boom") for k in range(4)])).line
     assert "4 failures (estimator X0; estimator X1; estimator X2; ...;" in failed

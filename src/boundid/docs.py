@@ -48,7 +48,16 @@ DESCRIPTIONS = {
     "robot": "The robot model.",
     "robot.model": "Which model (`boundid list` shows each with its parameters).",
     "robot.options": "The model's own settings (its true physical values or geometry); each option's "
-                     "default is listed below.",
+                     "default is listed below. With model = \"urdf\": `viscous` [N m s/rad], `coulomb` [N m], "
+                     "`armature` [kg m^2] and `offset` [N m] take one number for every joint or a list of one "
+                     "per joint (a list is used as given; the number 0, the default, means not given: the "
+                     "URDF's friction, no Ia_j or off_j parameters); `coupled_motors` lists the motors that "
+                     "turn with several joints, each a table {motor, joints, ratios, armature, viscous, "
+                     "coulomb}: its row of the transmission (q_m = sum ratios x q over joints, 1-based), its "
+                     "rotor inertia Iam, viscous fvm and Coulomb fsm friction scaled to its own joint "
+                     "(N^2 J, N^2 b, |N| c with N its own ratio; >= 0), adding the parameters Iam<m>, "
+                     "fvm<m>, fsm<m>. The Staubli TX40's wrist: coupled_motors = [{motor = 6, joints = [5, "
+                     "6], ratios = [32, 32], armature = 9.64e-3, viscous = 0.616, coulomb = 1.95}].",
     "experiment": "Where the data come from: a simulation of the robot, or a recording.",
     "experiment.source": "\"simulate\" runs the robot model; \"measured\" reads the recording named in "
                          "[experiment.measured].",
@@ -129,8 +138,9 @@ DESCRIPTIONS = {
     "estimators[].regressions": "The regression models it runs on, among the study's `regressions`.",
     "estimators[].form": "OBE form: \"factorized\" (square root, the H4 paper's) or \"standard\".",
     "estimators[].criterion": "OBE update criterion.",
-    "estimators[].e_max": "Needed by obe (refused without it): the bound on |y - w^T theta| in the regression's "
-                          "unit (N m, or J for supplied energy).",
+    "estimators[].e_max": "Needed by the set-membership methods: the bound on |y - w^T theta| in the regression's "
+                          "unit (N m, or J for supplied energy); left out, an estimator run on the [exact] "
+                          "regression alone takes [exact] e_max (a number or a rule).",
     "estimators[].forgetting": "RLS forgetting factor (1: none).",
     "estimators[].level": "Confidence level of the statistical set.",
     "estimators[].R": "Kalman measurement noise variance.",
@@ -138,7 +148,11 @@ DESCRIPTIONS = {
     "exact": "The exact optima, computed on one regression's rows.",
     "exact.regression": "The regression whose feasible polytope is solved; absent: no exact optima.",
     "exact.e_max": "Required with `regression`: the error bound of the polytope (equal to the e_max of an OBE "
-                   "on the same rows).",
+                   "on the same rows): a number, one bound on every row, or a rule, a factor times gamma*, the "
+                   "smallest bound the data allow: { factor = 2.0, scaling = \"one\" } (factor >= 1; scaling "
+                   "\"one\": one bound on every row, \"per_joint\": in proportion to each joint's own gamma*, "
+                   "\"wls_spread\": to each joint's WLS residual spread); e_max = {} is the default rule, 2 x "
+                   "gamma*, one bound on every row (the truth needed 1.25-1.71 gamma* on MuJoCo recordings).",
     "exact.lp_bounds": "Compute the exact parameter bounds (2p LPs).",
     "exact.sdp": "SDP ellipsoids to compute: outer (S-procedure upper bound on the minimum-volume ellipsoid), "
                  "inner (largest inscribed), john.",

@@ -50,7 +50,7 @@ from typing import Literal
 
 import numpy as np
 
-from boundid._validation import as_bounds, as_regression
+from boundid._validation import as_bounds, as_float_array, as_regression
 from boundid.errors import InfeasibleDataError, InputError, SolverError
 from boundid.estimators import _obe_kernels as K
 from boundid.estimators.estimate import Estimate, History
@@ -261,8 +261,14 @@ class OBE(RecursiveEstimator):
     def mahalanobis2(self, points) -> np.ndarray:
         """(theta - c)^T M (theta - c) / sigma for each row of ``points`` (m, p) (<= 1 inside), in the
         estimator's own representation: |X theta - z|^2 / sigma for the factorized form, the Cholesky
-        factor of sigma M^-1 for the standard form."""
-        return self._set().mahalanobis2(points)
+        factor of M^-1 for the standard form (LinAlgError once M^-1 is no longer positive definite)."""
+        if self.form == "factorized":
+            return self._set().mahalanobis2(points)
+        T = np.atleast_2d(as_float_array(points, "points"))
+        if T.ndim != 2 or T.shape[1] != self.p:
+            raise InputError(f"points must have {self.p} columns, got shape {T.shape}.")
+        R = np.linalg.solve(np.linalg.cholesky(self._P), (T - self.center).T)
+        return np.sum(R * R, axis=0) / self.sigma
 
     def ellipsoid(self) -> Ellipsoid:
         """The current set, without the rounding inflation of :meth:`estimate`."""
@@ -352,11 +358,15 @@ class OBEOptions:
                                                      "28-30) or factorized (QR, eqs. 33-35)")
     criterion: Literal["volume", "trace", "dasgupta-huang"] = option(
         "volume", "the weight's criterion: volume [FogelHuang1982], trace, or sigma [DasguptaHuang1987]")
+    stop_at_outlier: bool = option(
+        False, "a strip that misses the ellipsoid (the data contradict the bound there): false skips it and lists "
+               "it among the outliers; true stops the estimator with an error naming the row")
 
 
 def _build(problem: Problem, o: OBEOptions) -> Estimate:
-    return OBE(problem.p, prior=problem.prior, criterion=o.criterion, form=o.form, record_every=problem.record_every,
-               names=problem.names).fit(problem.W, problem.y, problem.e_max)
+    on_outlier = "raise" if o.stop_at_outlier else "skip"
+    return OBE(problem.p, prior=problem.prior, criterion=o.criterion, form=o.form, on_outlier=on_outlier,
+               record_every=problem.record_every, names=problem.names).fit(problem.W, problem.y, problem.e_max)
 
 
 # colour by form (Okabe-Ito blue, sky blue), marker and dash by criterion: six distinct variants

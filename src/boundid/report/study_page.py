@@ -23,10 +23,16 @@ from boundid.report.html import Page
 from boundid.report.output import replace_folder
 from boundid.report.tables import deviation_percent, estimate_summary, parameter_table
 from boundid.sets import log_unit_ball_volume
+from boundid.studies.bounds import where_rows_sit
 from boundid.studies.certify_files import certificate_row
 from boundid.studies.reproduction import VERDICTS, Claim, claims, prior_bounds, shrank
-from boundid.studies.runner import Failure, StudyResult
+from boundid.studies.runner import Failure, StudyResult, reference_values
 from boundid.studies.validation import BEST_APPROX_DURATION_S
+
+#: largest relative difference |a - b| / max(|a|, |b|, hi - lo) between two OpenBLAS kernels' numbers in a
+#: study's results.csv, where both kernels give the study the same regression rows (to this tolerance too);
+#: checked, with the verdicts, by `make platforms-report` (tools/platforms.py) in reports/benchmarks/platforms.md
+PLATFORM_RTOL = 1e-9
 
 
 class _Guard:
@@ -97,8 +103,8 @@ def describe(cfg) -> str:
              if pr.center == "model" else f"a box of +- {pr.absolute_range:g} about 0")
     text = f"{data}{pre + '.' if pre else ''} Estimators: {runs}. Prior: {prior}."
     if cfg.exact.regression is not None:
-        text += (f" Exact optima: the {cfg.exact.regression} rows with |e| <= {cfg.exact.e_max:g}, intersected "
-                 "with the prior box.")
+        bound = f"{cfg.exact.e_max:g}" if cfg.exact.e_max_rule is None else cfg.exact.e_max_rule.describe()
+        text += f" Exact optima: the {cfg.exact.regression} rows with |e| <= {bound}, intersected with the prior box."
     return text
 
 
@@ -289,14 +295,67 @@ def set_comparison(r: StudyResult) -> tuple[pd.DataFrame, pd.DataFrame] | None:
     return summary, per_param
 
 
+def bound_evidence(ex) -> str:
+    """What the data say about the bound (no truth needed): e_max against gamma*, the smallest bound
+    the data allow, and the minimum number of outliers when the data contradict the bound."""
+    ev = ex.evidence
+    gs = (f"gamma* = {ev.one:.4g} {ev.unit} is the smallest bound on every row the data allow (a lower bound on "
+          "the true errors' largest, not an estimate of it)")
+    if not ex.consistent:
+        text = (f"e_max = {ex.bound_text()} is {ex.gamma_star:.3g}x too small, no parameter vector satisfies every "
+                f"row; {gs}")
+        if ex.outliers is not None:
+            o = ex.outliers
+            how = "proven" if o.proven else f"not proven: the MILP stopped at its time limit with {o.n_outliers}"
+            text += f"; at least {o.lower_bound} row{'s' * (o.lower_bound != 1)} must go ({how})"
+        return text
+    margin = "" if ex.rule is not None else f", {1.0 / ex.gamma_star:.3g} x the smallest consistent bound"
+    return f"e_max = {ex.bound_text()}{margin}; {gs}"
+
+
+def _bound_section(page: Page, r: StudyResult) -> None:
+    """Choosing the bound: gamma* three ways, the rows that decide it and where they sit, the outliers."""
+    ex = r.exact
+    if ex is None or ex.evidence is None:
+        return
+    ev, reg, rec = ex.evidence, r.regressions[ex.regression], r.data.recording
+    page.section("Choosing the bound",
+                 "A guaranteed set is exactly as good as its bound e_max: on a recording nothing checks it. What the "
+                 "data do say is gamma*, the smallest bound they are consistent with (one LP): below it no parameter "
+                 "vector of the prior box fits every row; at it, one does (the Chebyshev fit). "
+                 + bound_evidence(ex) + ".")
+    page.table(pd.DataFrame(ev.table()).set_index("joint"),
+               f"gamma* three ways [{ev.unit}]: gamma*_j of each joint's rows alone, sigma_j the joint's WLS residual "
+               "spread, and the smallest consistent bound of the joint's rows under each scaling: one bound on every "
+               f"row (gamma* = {ev.one:.4g}), bounds in proportion to each joint's own gamma*_j ({ev.per_joint:.3g} x "
+               f"gamma*_j), or to its sigma_j ({ev.scaled:.3g} x sigma_j). A study's e_max may be a rule: a factor "
+               "times one of these scalings.",
+               name="gamma_star")
+    sits = pd.DataFrame(where_rows_sit(reg, rec.t, rec.q, rec.tau, ev.active)).set_index("row")
+    counts = sits["where"].value_counts()
+    page.table(sits.head(20), f"The {len(ev.active)} rows that decide gamma* (the active strips at the Chebyshev fit"
+               + (", the first 20" if len(ev.active) > 20 else "") + "), and where they sit: "
+               + ", ".join(f"{n} {w}" for w, n in counts.items()) + ". Rows at velocity reversals and stops carry "
+               "the friction model's error (sign(qd) against stiction); at the start and end, the filters' edges.",
+               name="active_rows")
+    if ex.outliers is not None and ex.outliers.n_outliers:
+        o = ex.outliers
+        dropped = pd.DataFrame(where_rows_sit(reg, rec.t, rec.q, rec.tau, o.dropped[:30])).set_index("row")
+        page.table(dropped, f"The rows to drop for the feasible set to be non-empty at this bound: {o.n_outliers}"
+                   + (" (proven minimum" if o.proven else f" (not proven: at least {o.lower_bound}")
+                   + f", HiGHS MILP in {o.time_s:.2g} s)" + (", the first 30" if o.n_outliers > 30 else "") + ".",
+                   name="outliers")
+
+
 def _exact_section(page: Page, r: StudyResult, guard: _Guard) -> None:
     ex = r.exact
     if ex is None:
         return
     m, names = r.model, r.model.param_names
     page.section("Distance to the exact optimum",
-                 f"The feasible polytope of the {ex.regression} rows with |e| <= {ex.e_max:g}, intersected with the "
-                 f"prior box: gamma* = {ex.gamma_star:.4g} (the data are consistent with the bounds iff gamma* <= 1).")
+                 f"The feasible polytope of the {ex.regression} rows with |e| <= {ex.bound_text()}, intersected with "
+                 f"the prior box: the smallest consistent inflation of these bounds is {ex.gamma_star:.4g} (the data "
+                 "are consistent with them iff it is <= 1).")
     truth = _truth(r)
     if truth is not None and np.isfinite(ex.truth_error_ratio):
         holds = ex.truth_violations == 0
@@ -425,14 +484,17 @@ def findings(r: StudyResult, verdicts: list[Claim], failures: list[Failure]) -> 
     ex, truth = r.exact, _truth(r)
     if ex is not None:
         n_rows = r.regressions[ex.regression].n_rows
+        if ex.evidence is not None:
+            out["the bound"] = bound_evidence(ex)
         if truth is None:
-            out["bound at the truth"] = "unknown: measured data have no truth"
+            out["bound at the truth"] = ("unknown: measured data have no truth; what the page shows holds under the "
+                                         "bound")
         elif np.isfinite(ex.truth_error_ratio):
             share = 100.0 * ex.truth_violations / n_rows
             out["bound at the truth"] = (
                 f"{'holds' if ex.truth_violations == 0 else 'BROKEN'}: max |error| / e_max = "
                 f"{ex.truth_error_ratio:.3g}, {ex.truth_violations} of {n_rows} rows ({share:.3g} %) over "
-                f"e_max = {ex.e_max:g}")
+                f"e_max = {ex.bound_text()}")
         if truth is not None and ex.bounds is not None:
             out["truth inside"] = _truth_inside(r, truth[0])
         second = r.validation.get("second_truth")
@@ -542,20 +604,16 @@ def _yes(b) -> str:
 
 
 def _truth(r: StudyResult) -> tuple[np.ndarray, str] | None:
-    """(values, name) the page compares with: the simulator's parameters for simulated data; for
-    measured data the study file's reference values ([paper] reference_values = {name = value}), if
-    any; else None (no truth columns, deviations or markers)."""
-    if r.config.experiment.source == "simulate":
-        return r.model.theta_true, "truth"
-    ref = r.config.paper.get("reference_values")
-    if not ref:
-        return None
-    return np.array([float(ref.get(n, np.nan)) for n in r.model.param_names]), "reference values (study file)"
+    """(values, name) the page compares with (:func:`boundid.studies.runner.reference_values`)."""
+    return reference_values(r.config, r.model)
 
 
 def _headline(r: StudyResult, verdicts: list[Claim]) -> str:
     """One sentence under the title: the bound at the truth, the guarantee, the paper verdicts."""
     ex, parts = r.exact, []
+    if ex is not None and ex.evidence is not None and r.config.experiment.source != "simulate":
+        parts.append(f"Under the bound e_max = {ex.bound_text()}, which no truth checks on measured data"
+                     if ex.consistent else f"The data contradict the bound e_max = {ex.bound_text()}")
     if ex is not None and _truth(r) is not None and np.isfinite(ex.truth_error_ratio):
         parts.append("The error bound holds at the truth" if ex.truth_violations == 0 else
                      f"The error bound is broken at the truth on {ex.truth_violations} rows")
@@ -602,7 +660,11 @@ def _page(r: StudyResult) -> Page:
                             index=pd.Index(list(setup), name="setting")),
                "The run's set-up. Figures from iterative solvers and long recursions (OBE update counts, volumes, "
                "LP/SDP optima) may differ in their last digits between machines (BLAS, CPU); on one machine the "
-               "same seed gives the same numbers.", name="setup")
+               "same seed gives the same numbers. Across OpenBLAS kernels (reports/benchmarks/platforms.md) the "
+               "kinds and containment verdicts of results.csv are the same, and its numbers agree to a relative "
+               f"{PLATFORM_RTOL:g} wherever both kernels give the same regression rows (a rounding difference can flip "
+               "an encoder count in a simulated feedback loop), except the limited polytope's, whose choice of "
+               "strips may differ.", name="setup")
     with guard("section", "base parameters"):
         _base_parameter_section(page, r)
     paper = {"h4": _paper_section_h4, "direct_drive": _paper_section_direct_drive}.get(cfg.robot)
@@ -615,6 +677,8 @@ def _page(r: StudyResult) -> Page:
         _convergence_sets(page, r)
     with guard("section", "validation"):
         _validation_section(page, r)
+    with guard("section", "choosing the bound"):
+        _bound_section(page, r)
     with guard("section", "distance to the exact optimum"):
         _exact_section(page, r, guard)
     with guard("section", "physically consistent bounds"):
@@ -669,7 +733,9 @@ def _physical_section(page: Page, r: StudyResult) -> None:
         est = ph.estimates.rename(columns={"margin": "physical margin", "consistent": "physically consistent?",
                                            "worst": "most violated constraint"})
         page.table(est, "Is each statistical estimate's centre physically consistent? The margin is minus the "
-                   "largest violation of a constraint (>= 0: consistent).", name="physical_estimates")
+                   "largest violation of a constraint (>= 0: consistent; for base parameters, at the standard "
+                   "parameters that violate the constraints least, in scaled units); the most violated constraint "
+                   "is named with its violation in parameter units.", name="physical_estimates")
 
 
 def _sweep_section(page: Page, r: StudyResult) -> None:
@@ -725,9 +791,11 @@ def _export_section(page: Page, r: StudyResult, folder: Path) -> None:
     if chosen is None:
         return
     label, est = chosen
+    reg = r.config.exact.regression
     folder.mkdir()
     try:
-        paths = r.model.export_identified(est.center, folder)
+        paths = r.model.export_identified(est.center, folder, estimate=f"the {label} centre on the {reg} regression",
+                                          cov=est.statistics.cov if est.statistics is not None else None)
     except RUN_FAILURES as exc:
         shutil.rmtree(folder)
         page.section("Identified parameters, exported",
@@ -736,13 +804,29 @@ def _export_section(page: Page, r: StudyResult, folder: Path) -> None:
     if not paths:  # the robot has no format of its own
         folder.rmdir()
         return
+    raw = [p for p in paths if p.stem.endswith("_unconstrained")]  # the estimate itself, when projected
     for path in paths:
-        page.attach(path.name, f"{folder.name}/{path.name}", f"{label} estimate, exported")
-    page.section("Identified parameters, exported",
-                 f"The {label} centre on the {r.config.exact.regression} regression, in the robot's own formats: "
-                 + ", ".join(p.name for p in paths) + f" (in {folder.name}/). The base parameters are mapped to "
-                 "standard ones with every dependent parameter at its URDF value, so that the copy reproduces the "
-                 "identified torques; the tables list both sets.")
+        page.attach(path.name, f"{folder.name}/{path.name}", f"{label} centre, not physically consistent: tables "
+                    "only" if path in raw else f"{label} estimate, exported")
+    text = (f"The {label} centre on the {reg} regression, in the robot's own formats: "
+            + ", ".join(p.name for p in paths if p not in raw) + f" (in {folder.name}/). ")
+    if raw:
+        ph = r.exact.physical if r.exact is not None else None
+        worst = ph.estimates["worst"].get(label, "") if ph is not None and len(ph.estimates) else ""
+        text = (f"The {label} centre on the {reg} regression is not physically consistent"
+                + (f" (most violated: {worst})" if worst else "") + ", so it is not exported as a URDF: it is in "
+                + " and ".join(p.name for p in raw) + " only. Exported instead, in the robot's own formats ("
+                + ", ".join(p.name for p in paths if p not in raw) + f", in {folder.name}/): its projection onto "
+                f"the physical set, the least squares in the {label} covariance metric under the physical "
+                "constraints (the LMI-constrained fit; the files' headers name the active constraints). ")
+    text += ("Every link of the URDF copy is a rigid body (mass > 0, principal moments with A + B > C), so pinocchio "
+             "and MuJoCo load it as it is; friction is in its <dynamics>, and the joints' armature, damping and "
+             "frictionloss in the MJCF fragment (its header says how to apply it).")
+    if tuple(r.model.param_definitions) != tuple(r.model.param_names):
+        text += (" Base parameters fix combinations of the standard ones only: the standard parameters written are "
+                 "the ones nearest the URDF's values whose links are rigid bodies, the armature (a joint property, "
+                 "never a link inertia) taking what a combination leaves; the tables list both sets.")
+    page.section("Identified parameters, exported", text)
 
 
 def write_study_report(r: StudyResult, out_dir: str | Path) -> Path:

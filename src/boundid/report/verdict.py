@@ -46,9 +46,16 @@ def _bound(r) -> tuple[bool | None, str]:
     if not np.isfinite(ex.gamma_star):
         return None, "bound not checked (the consistency LP failed)"
     if ex.consistent:
-        return True, f"truth unknown (measured data); the data respect the bound (gamma* = {ex.gamma_star:.3g})"
-    return False, (f"the data contradict the bound (smallest consistent bound {ex.gamma_star:.3g} x e_max): "
-                   "no guaranteed set exists")
+        gs = "" if ex.evidence is None else f" (gamma* = {ex.evidence.one:.3g} {ex.evidence.unit})"
+        margin = "" if ex.rule is not None else f", {1.0 / ex.gamma_star:.3g} x the smallest the data allow{gs}"
+        return True, (f"truth unknown (measured data): e_max = {ex.bound_text()}{margin}; what follows holds only if "
+                      "every row's error is within it")
+    tail = ""
+    if ex.outliers is not None:
+        o = ex.outliers
+        tail = f"; at least {o.lower_bound} row{'s' * (o.lower_bound != 1)} must go{' (proven)' if o.proven else ''}"
+    return False, (f"the data contradict the bound (the bounds must grow {ex.gamma_star:.3g}x): no guaranteed set "
+                   "exists" + tail)
 
 
 def _guarantees(r) -> tuple[bool | None, str]:

@@ -28,6 +28,7 @@ from boundid.experiments.transmission import Transmission, TransmissionError
 from boundid.models import RobotModel
 from boundid.models import registry as robots
 from boundid.studies import sizing
+from boundid.studies.bounds import DEFAULT_RULE, SCALINGS, BoundRule
 from boundid.studies.registry import experiment_options, make_robot
 from boundid.studies.scenarios import read_campaign, read_torque_noise
 from boundid.studies.schema import Section, range_text, read_toml
@@ -140,16 +141,26 @@ class EstimatorConfig:
     regressions: tuple[str, ...]
     options: Any
     e_max: float | None = None
+    bound_from_exact: bool = False  # no e_max of its own: the [exact] bound of its (exact) regression's rows
 
 
 @dataclass(frozen=True)
 class ExactConfig:
+    """[exact]: the regression whose feasible polytope is bounded exactly, what to compute, and its
+    bound: ``e_max`` a number (one bound on every row, in the regression's unit) or ``e_max_rule``
+    (a factor times gamma*, the smallest bound the data allow, :mod:`boundid.studies.bounds`)."""
+
     regression: str | None = None
     lp_bounds: bool = True
     sdp: tuple[str, ...] = ()
     projections: tuple[tuple[str, str], ...] = ()
     e_max: float | None = None
     volume_bracket: bool = True  # bracket the minimum-volume outer ellipsoid (needs sdp outer and inner)
+    e_max_rule: BoundRule | None = None
+
+    @property
+    def has_bound(self) -> bool:
+        return self.e_max is not None or self.e_max_rule is not None
 
 
 @dataclass(frozen=True)
@@ -254,14 +265,46 @@ def _estimator(sec: Section, regressions: tuple[str, ...]) -> EstimatorConfig:
         raise sec.error("regressions", "names no regression model.")
     label = sec.str("label", default=name.upper())
     options = read_options(sec, method)
-    e_max = None
-    if method.needs_bound:
-        if not sec.has("e_max"):
-            raise sec.error("e_max", f"is required for a {name} estimator: the bound on |y - w^T theta| in the "
-                                     "regression's unit (N m for the dynamic models, J for the energy model).")
-        e_max = sec.float("e_max", lo=0.0, strict_lo=True)
+    e_max = sec.float("e_max", None, lo=0.0, strict_lo=True) if method.needs_bound else None
     sec.check_unknown(option_help(method))
     return EstimatorConfig(name, label, regs, options, e_max)
+
+
+def _exact_bound(ex: Section) -> tuple[float | None, BoundRule | None]:
+    """[exact] e_max: a number, or a rule { factor = ..., scaling = ... } (both optional: the
+    default rule, :data:`boundid.studies.bounds.DEFAULT_RULE`)."""
+    if not isinstance(ex.data.get("e_max"), dict):
+        return ex.float("e_max", None, lo=0.0, strict_lo=True), None
+    rule = ex.section("e_max")
+    factor = rule.float("factor", DEFAULT_RULE.factor, lo=1.0)
+    scaling = rule.str("scaling", DEFAULT_RULE.scaling, choices=SCALINGS)
+    rule.check_unknown("a bound rule takes factor (number >= 1: e_max = factor x gamma*) and scaling "
+                       f"({', '.join(map(repr, SCALINGS))})")
+    return None, BoundRule(factor, scaling)
+
+
+def _bind_estimators(ex: Section, exact: ExactConfig, estimators: list[EstimatorConfig],
+                     sections: list[Section]) -> list[EstimatorConfig]:
+    """Every estimator that needs a bound has one: its own e_max, or, run on the exact regression
+    alone, [exact]'s (the same number, or the same per-row bounds of its rule)."""
+    out = []
+    for e, sec in zip(estimators, sections, strict=True):
+        if METHODS[e.method].needs_bound and e.e_max is None:
+            if not (exact.has_bound and e.regressions == (exact.regression,)):
+                raise sec.error("e_max", f"is required for a {e.method} estimator: the bound on |y - w^T theta| in "
+                                         "the regression's unit (N m for the dynamic models, J for the energy model); "
+                                         "or run it on the [exact] regression alone, whose e_max it then takes.")
+            e = replace(e, e_max=exact.e_max, bound_from_exact=True)
+        elif METHODS[e.method].needs_bound and exact.regression in e.regressions:
+            if exact.e_max_rule is not None:
+                raise ex.error("e_max", f"is a rule, but estimator {e.label!r} bounds the same {exact.regression} rows "
+                                        f"by e_max = {e.e_max}: remove its e_max to take the rule's bounds.")
+            if e.e_max != exact.e_max:
+                raise ex.error("e_max", f"is {exact.e_max} but estimator {e.label!r} bounds the same "
+                                        f"{exact.regression} rows by e_max = {e.e_max}: a set is certified against "
+                                        "the polytope of its own bound, so the two must be equal.")
+        out.append(e)
+    return out
 
 
 def _transmission(tr: Section, n: int) -> Transmission:
@@ -435,20 +478,23 @@ def load_study(path: str | Path) -> StudyConfig:
     regressions = tuple(top.list("regressions", choices=REGRESSIONS))
     if not regressions:
         raise top.error("regressions", f"names no regression model; choose among {', '.join(REGRESSIONS)}.")
-    estimators = tuple(_estimator(s, regressions) for s in top.sections("estimators"))
+    estimator_sections = top.sections("estimators")
+    estimators = tuple(_estimator(s, regressions) for s in estimator_sections)
     if not estimators:
         raise top.error("estimators", "no [[estimators]] table: a study needs at least one estimator.")
     labels = [e.label for e in estimators]
     if len(set(labels)) != len(labels):
         raise top.error("estimators", f"labels must be unique, got {labels}; set `label` on each.")
     ex = top.section("exact")
+    e_max, rule = _exact_bound(ex)
     exact = ExactConfig(
         regression=ex.str("regression", None, choices=regressions),
         lp_bounds=ex.bool("lp_bounds", True),
         sdp=tuple(ex.list("sdp", [], choices=SDP_SETS)),
         projections=tuple(tuple(pair) for pair in ex.list("projections", [], of=list)),
-        e_max=ex.float("e_max", None, lo=0.0, strict_lo=True),
+        e_max=e_max,
         volume_bracket=ex.bool("volume_bracket", True),
+        e_max_rule=rule,
     )
     for pair in exact.projections:
         if len(pair) != 2 or not all(isinstance(x, str) for x in pair):
@@ -459,13 +505,12 @@ def load_study(path: str | Path) -> StudyConfig:
                                           f"are {', '.join(model.param_names)}.")
         if pair[0] == pair[1]:
             raise ex.error("projections", f"{pair!r} names one parameter twice; a projection needs two.")
-    if exact.regression is not None and exact.e_max is None:
-        raise ex.error("e_max", "is required with `regression`: the exact polytope needs the error bound (N m).")
-    for e in estimators:
-        if METHODS[e.method].needs_bound and exact.regression in e.regressions and e.e_max != exact.e_max:
-            raise ex.error("e_max", f"is {exact.e_max} but estimator {e.label!r} bounds the same {exact.regression} "
-                                    f"rows by e_max = {e.e_max}: a set is certified against the "
-                                    "polytope of its own bound, so the two must be equal.")
+    if exact.regression is not None and not exact.has_bound:
+        raise ex.error("e_max", "is required with `regression`: the exact polytope needs the error bound, a number "
+                                "(N m) or a rule { factor = 2.0, scaling = \"one\" } (a factor times gamma*).")
+    if exact.regression is None and exact.e_max_rule is not None:
+        raise ex.error("e_max", "is a rule, which needs `regression`: gamma* is computed on the exact regression.")
+    estimators = tuple(_bind_estimators(ex, exact, list(estimators), estimator_sections))
     ex.check_unknown()
     cfg = StudyConfig(
         name=name,

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -14,8 +14,9 @@ from boundid.estimators import Estimate
 from boundid.estimators.certify import validate
 from boundid.experiments.regression import Regression
 from boundid.models import RobotModel
-from boundid.sets import Polytope, SDPResult
+from boundid.sets import OutlierCount, Polytope, SDPResult, min_outliers
 from boundid.sets.sdp import VolumeBracket, min_volume_bracket, polytope_ellipsoids
+from boundid.studies.bounds import BoundRule, GammaStar, gamma_star
 from boundid.studies.config import StudyConfig, prior_box
 from boundid.studies.data import StudyData, acquire
 from boundid.studies.estimation import run_estimator
@@ -25,10 +26,8 @@ from boundid.studies.registry import make_robot
 from boundid.studies.regressions import build_regressions
 from boundid.studies.validation import validate_study
 
-# ------------------------------------------------------------------------------ estimators
-
-
-# ------------------------------------------------------------------------------ exact optima
+#: seconds HiGHS may spend on the minimum-outlier MILP of a run whose data contradict the bound
+OUTLIER_TIME_LIMIT_S = 10.0
 
 
 @dataclass
@@ -48,7 +47,7 @@ class ExactResult:
     """
 
     regression: str
-    e_max: float
+    e_max: float | np.ndarray
     polytope: Polytope
     gamma_star: float
     truth_error_ratio: float = float("nan")
@@ -60,38 +59,79 @@ class ExactResult:
     time_s: dict[str, float] = field(default_factory=dict)
     physical: PhysicalResult | None = None
     bracket: VolumeBracket | None = None
+    evidence: GammaStar | None = None
+    rule: BoundRule | None = None
+    outliers: OutlierCount | None = None
+    unit: str = ""
+    row_joint: np.ndarray | None = None
 
     @property
     def consistent(self) -> bool:
         """Whether the data respect the bound (False also when the consistency LP failed: gamma* NaN)."""
         return self.gamma_star <= 1.0
 
+    def bound_text(self) -> str:
+        """The bound in words: "0.5 N m", or the per-row bounds of a rule ("0.37 N m (2 x gamma*, one
+        bound on every row)"; per joint "0.30, 0.41, 0.27 N m by joint (...)")."""
+        e = np.atleast_1d(np.asarray(self.e_max, float))
+        if np.ptp(e) == 0 or self.row_joint is None:
+            value = f"{e[0]:.4g} {self.unit}".strip()
+        else:
+            per = [e[self.row_joint == g][0] for g in np.unique(self.row_joint)]
+            value = f"{', '.join(f'{v:.4g}' for v in per)} {self.unit} by joint".strip()
+        return value if self.rule is None else f"{value} ({self.rule.describe()})"
+
 
 def _reason(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
-def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, set_estimates: dict[str, Estimate],
-                 progress: Progress) -> ExactResult:
-    """The exact optima of ``reg``'s polytope; a step that fails (LP, SDP, certificate) is recorded in
-    ``errors`` by name and the others go on."""
+def exact_bound(cfg: StudyConfig, reg: Regression, model: RobotModel) -> tuple[float | np.ndarray,
+                                                                                 GammaStar | None]:
+    """The exact regression's bound: [exact] e_max, or its rule's per-row bounds (N,), and gamma*
+    three ways (:func:`boundid.studies.bounds.gamma_star`; computed for a rule and for measured
+    data, whose verdict states it; None for simulated data with a number)."""
+    if cfg.exact.e_max_rule is None and cfg.experiment.source == "simulate":
+        return cfg.exact.e_max, None
     center, half = prior_box(model, cfg.prior)
-    P = Polytope.from_strips(reg.W, reg.y, cfg.exact.e_max, box=(center - half, center + half))
+    evidence = gamma_star(reg, (center - half, center + half))
+    if cfg.exact.e_max_rule is None:
+        return cfg.exact.e_max, evidence
+    return cfg.exact.e_max_rule.rows(evidence, reg.joint), evidence
+
+
+def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, set_estimates: dict[str, Estimate],
+                 progress: Progress, e_max: float | np.ndarray | None = None,
+                 evidence: GammaStar | None = None) -> ExactResult:
+    """The exact optima of ``reg``'s polytope with bound ``e_max`` (default [exact] e_max; per-row
+    (N,) for a rule); a step that fails (LP, SDP, certificate) is recorded in ``errors`` by name and
+    the others go on. When the data contradict the bound, the minimum number of rows to drop
+    (:func:`boundid.sets.min_outliers`) is computed instead of the bounds."""
+    e_max = cfg.exact.e_max if e_max is None else e_max
+    center, half = prior_box(model, cfg.prior)
+    box = (center - half, center + half)
+    P = Polytope.from_strips(reg.W, reg.y, e_max, box=box)
     t0 = time.perf_counter()
     try:
         gamma, failed = P.consistency().gamma, None
     except RUN_FAILURES as exc:
         gamma, failed = float("nan"), _reason(exc)
-    res = ExactResult(reg.model, cfg.exact.e_max, P, gamma, time_s={"consistency": time.perf_counter() - t0})
+    res = ExactResult(reg.model, e_max, P, gamma, time_s={"consistency": time.perf_counter() - t0},
+                      evidence=evidence, rule=cfg.exact.e_max_rule, unit=reg.unit, row_joint=reg.joint)
     if cfg.experiment.source == "simulate":
-        ratio = np.abs(reg.y - reg.W @ model.theta_true) / cfg.exact.e_max
+        ratio = np.abs(reg.y - reg.W @ model.theta_true) / e_max
         res.truth_error_ratio, res.truth_violations = float(ratio.max()), int(np.sum(ratio > 1.0))
     if failed is not None:
         res.errors["consistency"] = failed
         return res
     if not res.consistent:
-        res.errors["bounds"] = (f"the data contradict the bound e_max = {cfg.exact.e_max:g} {reg.unit}: the "
-                                f"smallest consistent bound is {gamma * cfg.exact.e_max:.4g} {reg.unit}")
+        res.errors["bounds"] = (f"the data contradict the bound e_max = {res.bound_text()}: the bounds must grow by "
+                                f"a factor {gamma:.4g} for any parameter vector of the prior box to satisfy every row")
+        with progress.stage(f"{cfg.name}: minimum number of outliers ({reg.n_rows} rows)"):
+            try:
+                res.outliers = min_outliers(reg.W, reg.y, e_max, box, time_limit=OUTLIER_TIME_LIMIT_S)
+            except RUN_FAILURES as exc:
+                res.errors["outliers"] = _reason(exc)
         return res
     if cfg.exact.lp_bounds or cfg.exact.sdp:
         with progress.stage(f"{cfg.name}: exact LP bounds ({reg.n_rows} strips)"):
@@ -160,39 +200,55 @@ class StudyResult:
     timings: dict[str, float]
 
 
+def reference_values(cfg: StudyConfig, model: RobotModel) -> tuple[np.ndarray, str] | None:
+    """(values (p,), name) a run is compared with: the simulator's parameters for simulated data; for
+    measured data the study file's reference values ([paper] reference_values = {name = value}),
+    NaN for a parameter it does not list; None when there are none (never the prior)."""
+    if cfg.experiment.source == "simulate":
+        return model.theta_true, "truth"
+    ref = cfg.paper.get("reference_values")
+    if not ref:
+        return None
+    return np.array([float(ref.get(n, np.nan)) for n in model.param_names]), "reference values (study file)"
+
+
 def tidy_table(cfg: StudyConfig, model: RobotModel, estimates: dict[tuple[str, str], Estimate],
                exact: ExactResult | None) -> pd.DataFrame:
-    """One row per estimator x regression x parameter: centre, lo, hi, truth, prior, kind, and two
-    containments of the whole true vector theta_true (the same on every row of an estimate; NA for
-    measured data, whose truth is unknown):
+    """One row per estimator x regression x parameter: centre, lo, hi, truth, prior, kind, and
+    containments. ``truth`` is the simulator's value, or for measured data the study file's reference
+    value where it lists one (NaN otherwise: never the prior):
 
+    truth_in_interval : lo_j <= truth_j <= hi_j for this parameter (NA without a truth value)
     truth_in_set : theta_true lies in the estimate's set -- its guaranteed or confidence set, of
-        any family, or the exact polytope for "LP exact"; NA for a point estimate (no set)
+        any family, or the exact polytope for "LP exact"; NA for a point estimate (no set) and for
+        measured data (no whole true vector)
     truth_in_all_intervals : lo_j <= theta_true_j <= hi_j for every parameter j, i.e. theta_true lies
-        in the set's bounding box. Implied by truth_in_set, not the converse: a truth in a corner of
-        the box, outside the ellipsoid, has True here and False there.
+        in the set's bounding box (NA for measured data). Implied by truth_in_set, not the converse: a
+        truth in a corner of the box, outside the ellipsoid, has True here and False there.
     """
-    truth = model.theta_true
     known = cfg.experiment.source == "simulate"
+    ref = reference_values(cfg, model)
+    truth = np.full(model.p, np.nan) if ref is None else ref[0]
     sets = []  # (label, method, regression, kind, centre, (lo, hi), truth in set, level)
     for (label, regname), est in estimates.items():
-        in_set = est.contains(truth) if est.set is not None else pd.NA
+        in_set = est.contains(truth) if est.set is not None and known else pd.NA
         sets.append((label, est.method, regname, est.kind, est.center, est.intervals, in_set, est.level))
     if exact is not None and exact.bounds is not None:
         b = exact.bounds
         sets.append(("LP exact", "LP", exact.regression, "exact", 0.5 * (b.lo + b.hi), (b.lo, b.hi),
-                     bool(exact.polytope.contains(truth)), None))
+                     bool(exact.polytope.contains(truth)) if known else pd.NA, None))
     rows = []
     for label, method, regname, kind, center, (lo, hi), in_set, level in sets:
-        in_box = bool(np.all((lo <= truth) & (truth <= hi)))
+        in_box = bool(np.all((lo <= truth) & (truth <= hi))) if known else pd.NA
         for j, name in enumerate(model.param_names):
+            inside = bool(lo[j] <= truth[j] <= hi[j]) if np.isfinite(truth[j]) else pd.NA
             rows.append({"study": cfg.name, "estimator": label, "method": method, "regression": regname,
                          "parameter": name, "unit": model.param_units[j], "center": center[j], "lo": lo[j],
                          "hi": hi[j], "truth": truth[j], "prior": model.theta_prior[j], "kind": kind,
-                         "level": level, "truth_in_set": in_set if known else pd.NA,
-                         "truth_in_all_intervals": in_box if known else pd.NA})
+                         "level": level, "truth_in_interval": inside, "truth_in_set": in_set,
+                         "truth_in_all_intervals": in_box})
     table = pd.DataFrame(rows)
-    for col in ("truth_in_set", "truth_in_all_intervals"):
+    for col in ("truth_in_interval", "truth_in_set", "truth_in_all_intervals"):
         if col in table:
             table[col] = table[col].astype("boolean")
     return table
@@ -214,10 +270,25 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
         regressions = build_regressions(model, data.recording, cfg.preprocessing, cfg.regressions)
     timings["regressions"] = time.perf_counter() - t0
 
-    estimates: dict[tuple[str, str], Estimate] = {}
     failures: list[Failure] = []
+    bound, evidence = None, None  # the exact regression's bound, and gamma* (when computed)
+    if cfg.exact.regression is not None:
+        t0 = time.perf_counter()
+        with progress.stage(f"{cfg.name}: gamma*, the smallest bound the data allow"):
+            try:
+                bound, evidence = exact_bound(cfg, regressions[cfg.exact.regression], model)
+            except RUN_FAILURES as exc:
+                failures.append(Failure("exact optima", "gamma*", _reason(exc)))
+        timings["gamma_star"] = time.perf_counter() - t0
+
+    estimates: dict[tuple[str, str], Estimate] = {}
     t0 = time.perf_counter()
     for ec in cfg.estimators:
+        if ec.bound_from_exact:
+            if bound is None:
+                failures.append(Failure("estimator", ec.label, "no bound: gamma* of the exact regression failed"))
+                continue
+            ec = replace(ec, e_max=bound)
         for regname in ec.regressions:
             with progress.stage(f"{cfg.name}: {ec.label} on {regname}"):
                 try:
@@ -227,11 +298,11 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
     timings["estimators"] = time.perf_counter() - t0
 
     exact = None
-    if cfg.exact.regression is not None:
+    if cfg.exact.regression is not None and bound is not None:
         t0 = time.perf_counter()
         sets = {lab: e for (lab, rn), e in estimates.items() if rn == cfg.exact.regression and e.set_membership}
         try:
-            exact = exact_optima(cfg, regressions[cfg.exact.regression], model, sets, progress)
+            exact = exact_optima(cfg, regressions[cfg.exact.regression], model, sets, progress, bound, evidence)
         except RUN_FAILURES as exc:
             failures.append(Failure("exact optima", cfg.exact.regression, _reason(exc)))
         else:
