@@ -102,28 +102,31 @@ regressions = ["filtered_dynamic"]
 
 [exact]
 regression = "filtered_dynamic"
-e_max = {rule}
+{rule}
 """
 
 
 def test_study_file_takes_a_rule_and_estimators_inherit_it(tmp_path):
     path = tmp_path / "rule.toml"
-    path.write_text(tiny_study("rule", 1) + RULE_EXACT.format(rule='{ factor = 1.5, scaling = "wls_spread" }'))
+    rule = 'e_max_rule = { factor = 1.5, scaling = "wls_spread" }'
+    path.write_text(tiny_study("rule", 1) + RULE_EXACT.format(rule=rule))
     cfg = load_study(path)
     assert cfg.exact.e_max is None and cfg.exact.e_max_rule == BoundRule(1.5, "wls_spread")
     obe = next(e for e in cfg.estimators if e.label == "OBE")
     assert obe.bound_from_exact and obe.e_max is None
-    path.write_text(tiny_study("rule", 1) + RULE_EXACT.format(rule="{}"))
+    path.write_text(tiny_study("rule", 1) + RULE_EXACT.format(rule="e_max_rule = {}"))
     assert load_study(path).exact.e_max_rule == DEFAULT_RULE
 
 
 @pytest.mark.parametrize("rule, extra, match", [
-    ("{ factor = 0.5 }", "", r"exact\.e_max\.factor: must be >= 1"),
-    ('{ scaling = "median" }', "", r"exact\.e_max\.scaling: must be one of"),
-    ("{ factor = 2.0, margin = 1 }", "", r"exact\.e_max\.margin: unknown key; a bound rule takes factor"),
-    ("{ factor = nan }", "", r"exact\.e_max\.factor: must be a finite number"),
-    ("{ factor = 2.0 }", '\n[[estimators]]\nmethod = "obe"\nlabel = "OBE2"\nregressions = ["filtered_dynamic"]\n'
-     "e_max = 1.0\n", r"is a rule, but estimator 'OBE2' bounds the same filtered_dynamic rows by e_max = 1\.0"),
+    ("e_max_rule = { factor = 0.5 }", "", r"exact\.e_max_rule\.factor: must be >= 1"),
+    ('e_max_rule = { scaling = "median" }', "", r"exact\.e_max_rule\.scaling: must be one of"),
+    ("e_max_rule = { factor = 2.0, margin = 1 }", "", r"exact\.e_max_rule\.margin: unknown key; a bound rule takes"),
+    ("e_max_rule = { factor = nan }", "", r"exact\.e_max_rule\.factor: must be a finite number"),
+    ("e_max_rule = { factor = 2.0 }\ne_max = 1.0", "", r"exact\.e_max_rule: and e_max are both given"),
+    ("e_max_rule = { factor = 2.0 }", '\n[[estimators]]\nmethod = "obe"\nlabel = "OBE2"\n'
+     'regressions = ["filtered_dynamic"]\ne_max = 1.0\n',
+     r"e_max_rule: is given, but estimator 'OBE2' bounds the same filtered_dynamic rows by e_max = 1\.0"),
 ])
 def test_study_file_refuses_a_bad_rule(tmp_path, rule, extra, match):
     path = tmp_path / "bad.toml"
@@ -143,7 +146,7 @@ regressions = ["filtered_dynamic", "filtered_power"]
 
 [exact]
 regression = "filtered_dynamic"
-e_max = { factor = 2.0 }
+e_max_rule = { factor = 2.0 }
 """)
     with pytest.raises(StudyError, match=r"estimators\[0\]\.e_max: is required .* on the \[exact\] regression alone"):
         load_study(path)
@@ -156,8 +159,9 @@ def test_measured_run_with_a_rule_states_what_holds_under_it(tmp_path):
     outliers instead: a proven lower bound, and rows whose removal leaves the data consistent (the
     MILP's incumbent; on 1,600 rows the big-M relaxation rarely proves the minimum in its time limit)."""
     head = tiny_study("rulerun", 3)
-    _, sim = run_study_text(tmp_path, "sim", head + RULE_EXACT.format(rule="1.0"))
-    text = measured_twin(head + RULE_EXACT.format(rule='{ factor = 2.0, scaling = "one" }'), sim, tmp_path)
+    _, sim = run_study_text(tmp_path, "sim", head + RULE_EXACT.format(rule="e_max = 1.0"))
+    text = measured_twin(head + RULE_EXACT.format(rule='e_max_rule = { factor = 2.0, scaling = "one" }'), sim,
+                         tmp_path)
     _, r = run_study_text(tmp_path, "rulerun", text)
     ex = r.exact
     assert ex.evidence is not None and ex.rule == BoundRule(2.0, "one")
@@ -167,7 +171,7 @@ def test_measured_run_with_a_rule_states_what_holds_under_it(tmp_path):
     v = run_verdict(r)
     assert v.ok and "truth unknown (measured data): e_max = " in v.line and "2 x gamma*" in v.line
 
-    low = text.replace('e_max = { factor = 2.0, scaling = "one" }', f"e_max = {0.8 * ex.evidence.one!r}")
+    low = text.replace('e_max_rule = { factor = 2.0, scaling = "one" }', f"e_max = {0.8 * ex.evidence.one!r}")
     low = low.replace('regressions = ["filtered_dynamic"]\n\n[[estimators]]\nmethod = "wls"',
                       f'regressions = ["filtered_dynamic"]\ne_max = {0.8 * ex.evidence.one!r}\n\n[[estimators]]\n'
                       'method = "wls"')
@@ -199,7 +203,7 @@ def test_default_rule_holds_the_truth_on_mujoco_recordings(seed, tmp_path):
     csv = write_recording(rec.recording(), tmp_path / "rec.csv")
     study = tmp_path / "rule.toml"
     study.write_text(MEASURED_STUDY.format(csv=csv.name).replace("e_max = 0.5\n", "")
-                     + '\n[exact]\nregression = "inverse_dynamic"\ne_max = {}\n')
+                     + '\n[exact]\nregression = "inverse_dynamic"\ne_max_rule = {}\n')
     r = run_study(load_study(study))
     ex = r.exact
     theta = r.model.base.base(rec.theta_true)

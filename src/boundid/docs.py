@@ -140,19 +140,22 @@ DESCRIPTIONS = {
     "estimators[].criterion": "OBE update criterion.",
     "estimators[].e_max": "Needed by the set-membership methods: the bound on |y - w^T theta| in the regression's "
                           "unit (N m, or J for supplied energy); left out, an estimator run on the [exact] "
-                          "regression alone takes [exact] e_max (a number or a rule).",
+                          "regression alone takes [exact] e_max or e_max_rule.",
     "estimators[].forgetting": "RLS forgetting factor (1: none).",
     "estimators[].level": "Confidence level of the statistical set.",
     "estimators[].R": "Kalman measurement noise variance.",
     "estimators[].Q": "Kalman process noise variance (0: constant parameters).",
     "exact": "The exact optima, computed on one regression's rows.",
     "exact.regression": "The regression whose feasible polytope is solved; absent: no exact optima.",
-    "exact.e_max": "Required with `regression`: the error bound of the polytope (equal to the e_max of an OBE "
-                   "on the same rows): a number, one bound on every row, or a rule, a factor times gamma*, the "
-                   "smallest bound the data allow: { factor = 2.0, scaling = \"one\" } (factor >= 1; scaling "
-                   "\"one\": one bound on every row, \"per_joint\": in proportion to each joint's own gamma*, "
-                   "\"wls_spread\": to each joint's WLS residual spread); e_max = {} is the default rule, 2 x "
-                   "gamma*, one bound on every row (the truth needed 1.25-1.71 gamma* on MuJoCo recordings).",
+    "exact.e_max": "The error bound of the polytope, one number for every row (equal to the e_max of an OBE on "
+                   "the same rows); with `regression`, this or `e_max_rule` is required.",
+    "exact.e_max_rule": "The bound as a rule: a factor times gamma*, the smallest bound the data allow (instead of "
+                        "e_max); e_max_rule = {} is the default, 2 x gamma*, one bound on every row (the truth "
+                        "needed 1.25-1.71 gamma* on MuJoCo UR5 recordings).",
+    "exact.e_max_rule.factor": "e_max = factor x the smallest consistent bounds of the scaling (>= 1; 1 leaves one "
+                               "point).",
+    "exact.e_max_rule.scaling": "\"one\": one bound on every row; \"per_joint\": in proportion to each joint's own "
+                                "gamma*; \"wls_spread\": in proportion to each joint's WLS residual spread.",
     "exact.lp_bounds": "Compute the exact parameter bounds (2p LPs).",
     "exact.sdp": "SDP ellipsoids to compute: outer (S-procedure upper bound on the minimum-volume ellipsoid), "
                  "inner (largest inscribed), john.",

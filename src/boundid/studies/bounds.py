@@ -109,7 +109,7 @@ class BoundRule:
         return f"{self.factor:g} x gamma*, {how}"
 
 
-#: the rule a study takes with ``e_max = {}``: twice gamma*, one bound on every row. On MuJoCo recordings of
+#: the rule a study takes with ``e_max_rule = {}``: twice gamma*, one bound on every row. On MuJoCo recordings of
 #: a UR5 (tests/test_bound_rule.py) the truth's largest row error was 1.25-1.71 gamma* on 5 seeds.
 DEFAULT_RULE = BoundRule(2.0, "one")
 

@@ -271,16 +271,16 @@ def _estimator(sec: Section, regressions: tuple[str, ...]) -> EstimatorConfig:
 
 
 def _exact_bound(ex: Section) -> tuple[float | None, BoundRule | None]:
-    """[exact] e_max: a number, or a rule { factor = ..., scaling = ... } (both optional: the
-    default rule, :data:`boundid.studies.bounds.DEFAULT_RULE`)."""
-    if not isinstance(ex.data.get("e_max"), dict):
-        return ex.float("e_max", None, lo=0.0, strict_lo=True), None
-    rule = ex.section("e_max")
+    """[exact] e_max, a number, or e_max_rule, a table { factor = ..., scaling = ... } (both keys
+    optional: :data:`boundid.studies.bounds.DEFAULT_RULE`); load_study refuses both at once."""
+    e_max = ex.float("e_max", None, lo=0.0, strict_lo=True)
+    given = ex.has("e_max_rule")
+    rule = ex.section("e_max_rule")
     factor = rule.float("factor", DEFAULT_RULE.factor, lo=1.0)
     scaling = rule.str("scaling", DEFAULT_RULE.scaling, choices=SCALINGS)
     rule.check_unknown("a bound rule takes factor (number >= 1: e_max = factor x gamma*) and scaling "
                        f"({', '.join(map(repr, SCALINGS))})")
-    return None, BoundRule(factor, scaling)
+    return e_max, BoundRule(factor, scaling) if given else None
 
 
 def _bind_estimators(ex: Section, exact: ExactConfig, estimators: list[EstimatorConfig],
@@ -297,8 +297,9 @@ def _bind_estimators(ex: Section, exact: ExactConfig, estimators: list[Estimator
             e = replace(e, e_max=exact.e_max, bound_from_exact=True)
         elif METHODS[e.method].needs_bound and exact.regression in e.regressions:
             if exact.e_max_rule is not None:
-                raise ex.error("e_max", f"is a rule, but estimator {e.label!r} bounds the same {exact.regression} rows "
-                                        f"by e_max = {e.e_max}: remove its e_max to take the rule's bounds.")
+                raise ex.error("e_max_rule", f"is given, but estimator {e.label!r} bounds the same "
+                                             f"{exact.regression} rows by e_max = {e.e_max}: remove its e_max to take "
+                                             "the rule's bounds.")
             if e.e_max != exact.e_max:
                 raise ex.error("e_max", f"is {exact.e_max} but estimator {e.label!r} bounds the same "
                                         f"{exact.regression} rows by e_max = {e.e_max}: a set is certified against "
@@ -456,6 +457,9 @@ def load_study(path: str | Path) -> StudyConfig:
     robot = rb.str("model", choices=tuple(robots.ROBOTS))
     robot_options = rb.options("options", robots.robot_options(robot), f"robot {robot!r}")
     rb.check_unknown()
+    source = robot_options.get("source") if robot == "urdf" else None
+    if isinstance(source, str) and not Path(source).expanduser().is_absolute() and (path.parent / source).is_file():
+        robot_options = robot_options | {"source": str((path.parent / source).resolve())}  # a URDF next to the study
     model = make_robot(robot, robot_options)  # the model checks the option values
     experiment = _experiment(top.section("experiment", required=True), path.parent)
     pp = top.section("preprocessing")
@@ -507,10 +511,10 @@ def load_study(path: str | Path) -> StudyConfig:
             raise ex.error("projections", f"{pair!r} names one parameter twice; a projection needs two.")
     if exact.regression is not None and not exact.has_bound:
         raise ex.error("e_max", "is required with `regression`: the exact polytope needs the error bound, a number "
-                                "(N m) or a rule { factor = 2.0, scaling = \"one\" } (a factor times gamma*).")
+                                "(N m), or give e_max_rule = { factor = 2.0, scaling = \"one\" } (a factor times "
+                                "gamma*, the smallest bound the data allow).")
     if exact.regression is None and exact.e_max_rule is not None:
-        raise ex.error("e_max", "is a rule, which needs `regression`: gamma* is computed on the exact regression.")
-    estimators = tuple(_bind_estimators(ex, exact, list(estimators), estimator_sections))
+        raise ex.error("e_max_rule", "needs `regression`: gamma* is computed on the exact regression.")
     ex.check_unknown()
     cfg = StudyConfig(
         name=name,
@@ -532,6 +536,9 @@ def load_study(path: str | Path) -> StudyConfig:
         read_campaign(top.section("campaign"), labels)
     st.check_unknown()
     top.check_unknown()
+    if exact.e_max is not None and exact.e_max_rule is not None:  # last: boundid.docs reads every key first
+        raise ex.error("e_max_rule", "and e_max are both given: keep one, the number or the rule.")
+    cfg = replace(cfg, estimators=tuple(_bind_estimators(ex, exact, list(estimators), estimator_sections)))
     _check_size(cfg, model)
     _check_prior(cfg, model)
     return cfg
