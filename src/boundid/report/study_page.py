@@ -534,8 +534,15 @@ def _truth_inside(r: StudyResult, truth: np.ndarray) -> str:
     when the bound holds at the truth)."""
     ex = r.exact
     tol = 1e-9 * np.maximum(1.0, np.abs(truth))
-    in_lp = bool(np.all((ex.bounds.lo - tol <= truth) & (truth <= ex.bounds.hi + tol)))
     sets = _guaranteed_sets(r)
+    listed = np.isfinite(truth)
+    if not listed.all():  # reference values of some parameters only: their intervals, not the whole vector
+        def count(lo, hi) -> str:
+            return f"{int(np.sum(((lo - tol <= truth) & (truth <= hi + tol))[listed]))} of {int(listed.sum())}"
+        return (f"the reference values of {int(listed.sum())} parameters: exact LP intervals hold "
+                f"{count(ex.bounds.lo, ex.bounds.hi)}; "
+                + "; ".join(f"{lab} {count(*e.intervals)}" for lab, e in sets.items()))
+    in_lp = bool(np.all((ex.bounds.lo - tol <= truth) & (truth <= ex.bounds.hi + tol)))
     missed = [lab for lab, e in sets.items() if not e.set.contains(truth)]
     text = (f"exact LP bounds {'yes' if in_lp else 'NO'}; "
             + (f"every guaranteed set ({len(sets)})" if not missed else
