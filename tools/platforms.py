@@ -244,7 +244,7 @@ def compare_study(a, b, data_rel: float, rtol: float) -> dict:
     categorical = [c for c in a.columns if c not in numeric]
     out["categorical"], out["numeric"] = categorical, numeric
     for c in categorical:
-        differ = int((a[c].astype(str) != b[c].astype(str)).sum())
+        differ = int((a[c].fillna("<NA>").astype(str) != b[c].fillna("<NA>").astype(str)).sum())  # NA != NA
         if differ:
             out["verdicts"].append(f"column {c}: {differ} rows differ")
     for c in numeric:
