@@ -98,6 +98,19 @@ def is_outside(ellipsoid, theta) -> bool:
 
 
 # ---------------------------------------------------------------------------- the harness
+def _errors(pattern: str, rng, e: np.ndarray) -> np.ndarray | None:
+    """The errors of a pattern for bounds e (N,); None for "adversarial" (chosen online, against the
+    estimator's centre, by run_case)."""
+    N = e.shape[0]
+    if pattern == "uniform":
+        return rng.uniform(-1.0, 1.0, N) * e
+    if pattern == "at_bound":
+        return np.where(rng.random(N) < 0.5, -1.0, 1.0) * e
+    if pattern == "alternating":
+        return (-1.0) ** np.arange(N) * e
+    return None
+
+
 def make_case(seed: int, pattern: str) -> dict:
     """One random problem: p in 1..6, Gaussian or ill-conditioned (cond 1e2..1e7) regressors at
     scales 1e-2..1e2, bounds 1e-5..1 of the rms output, a prior ball around a point near the
@@ -114,14 +127,7 @@ def make_case(seed: int, pattern: str) -> dict:
     e = 10 ** rng.uniform(-5, 0) * np.sqrt(np.mean((W @ theta) ** 2)) * rng.uniform(0.5, 1.5, N)
     center0 = theta + rng.normal(size=p) * np.abs(theta).max() * 0.3
     shape0 = float(np.sum((theta - center0) ** 2) * 10 ** rng.uniform(0.05, 8)) + 1e-12
-    if pattern == "uniform":
-        err = rng.uniform(-1.0, 1.0, N) * e
-    elif pattern == "at_bound":
-        err = np.where(rng.random(N) < 0.5, -1.0, 1.0) * e
-    elif pattern == "alternating":
-        err = (-1.0) ** np.arange(N) * e
-    else:
-        err = None  # chosen online, against the estimator's centre
+    err = _errors(pattern, rng, e)
     return {"p": p, "theta": theta, "W": W, "e": e, "err": err, "center0": center0, "shape0": shape0}
 
 
@@ -241,14 +247,7 @@ def make_hard_case(seed: int, pattern: str) -> dict:
     e = np.maximum(e, np.finfo(float).tiny / np.finfo(float).eps)  # a row of zeros: a finite, positive bound
     center0 = theta + rng.normal(size=p) * np.abs(theta).max() * 0.3
     shape0 = float(np.sum((theta - center0) ** 2) * 10 ** rng.uniform(2, 12))
-    if pattern == "uniform":
-        err = rng.uniform(-1.0, 1.0, N) * e
-    elif pattern == "at_bound":
-        err = np.where(rng.random(N) < 0.5, -1.0, 1.0) * e
-    elif pattern == "alternating":
-        err = (-1.0) ** np.arange(N) * e
-    else:
-        err = None
+    err = _errors(pattern, rng, e)
     return {"p": p, "theta": theta, "W": W, "e": e, "err": err, "center0": center0, "shape0": shape0,
             "kind": kind}
 

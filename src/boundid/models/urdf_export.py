@@ -56,7 +56,7 @@ import yaml
 from boundid._validation import as_matrix, as_vector
 from boundid.errors import InputError, SolverError
 from boundid.models.base_parameters import BaseParameters
-from boundid.sets.conic import ConicProblem, InfeasibleProblem
+from boundid.sets.conic import InfeasibleProblem, lmi_expressions
 from boundid.sets.conic import solve as solve_conic
 from boundid.sets.constraints import MatrixInequality, PhysicalConstraints, constraints, pseudo_inertia
 from boundid.sets.physical import constrained_fit
@@ -164,13 +164,7 @@ def _nearest_standard(robot, cons: PhysicalConstraints, base: BaseParameters, be
     if cw.linear.m:
         nrm = np.linalg.norm(cw.linear.A, axis=1)
         parts.append((cw.linear.A / nrm[:, None]) @ w <= cw.linear.b / nrm)
-    probe = ConicProblem(p)
-    for L in cw.lmis:
-        probe.add_lmi(L.F0, L.F)
-    for F0, F in probe.psds:
-        k = F0.shape[0]
-        M = F0 + cp.reshape(F.reshape(p, k * k).T @ w, (k, k), order="C")
-        parts.append(0.5 * (M + M.T) >> 0)
+    parts += [M >> 0 for M in lmi_expressions(cw.lmis, w)]
     prob = cp.Problem(cp.Minimize(cp.sum_squares(cp.multiply(g, w - robot.theta_true / s))), parts)
     try:
         solve_conic(prob, "the standard parameters of the exported URDF")

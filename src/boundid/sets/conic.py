@@ -264,5 +264,20 @@ def solve(prob: cp.Problem, what: str) -> str:
     return status
 
 
+def lmi_expressions(lmis, v: cp.Variable) -> list:
+    """The matrices F0 + sum_i v_i F_i of ``lmis`` (each with F0 (k, k), F (n, k, k)), rescaled as
+    :meth:`ConicProblem.add_lmi` does, as symmetric cvxpy expressions of v (n,): ``M >> 0`` is the
+    constraint, for a hand-written cvxpy problem."""
+    scaled = ConicProblem(v.size)
+    for L in lmis:
+        scaled.add_lmi(L.F0, L.F)
+    out = []
+    for F0, F in scaled.psds:
+        k = F0.shape[0]
+        M = F0 + cp.reshape(F.reshape(v.size, k * k).T @ v, (k, k), order="C")
+        out.append(0.5 * (M + M.T))
+    return out
+
+
 class InfeasibleProblem(Exception):
     """Clarabel proved the working-set problem infeasible (the caller says what that means)."""

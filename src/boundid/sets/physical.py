@@ -49,7 +49,7 @@ import numpy as np
 
 from boundid._validation import as_float_array, as_matrix, as_regression, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
-from boundid.sets.conic import ConicProblem, InfeasibleProblem, Pool
+from boundid.sets.conic import ConicProblem, InfeasibleProblem, Pool, lmi_expressions
 from boundid.sets.conic import solve as solve_conic
 from boundid.sets.constraints import PhysicalConstraints
 from boundid.sets.ellipsoid import Ellipsoid
@@ -635,13 +635,7 @@ def physical_margin(constraints: PhysicalConstraints, theta) -> tuple[float, np.
     for c in cons.cones:
         lip = c.lipschitz
         parts.append(cp.SOC((c.f @ w + c.d) / lip - s, (c.G @ w + c.g) / lip))
-    probe = ConicProblem(n)
-    for L in cons.lmis:
-        probe.add_lmi(L.F0, L.F)
-    for F0, F in probe.psds:
-        k = F0.shape[0]
-        M = F0 + cp.reshape(F.reshape(n, k * k).T @ w, (k, k), order="C")
-        parts.append(0.5 * (M + M.T) - s * np.eye(k) >> 0)
+    parts += [M - s * np.eye(M.shape[0]) >> 0 for M in lmi_expressions(cons.lmis, w)]
     prob = cp.Problem(cp.Maximize(s), parts)
     try:
         solve_conic(prob, "physical margin")
