@@ -213,3 +213,23 @@ def test_default_rule_holds_the_truth_on_mujoco_recordings(seed, tmp_path):
     assert ratio.max() <= 1.0
     assert ex.polytope.contains(theta)
     assert r.estimates[("OBE", "inverse_dynamic")].contains(theta)
+
+
+def test_contradicted_bound_on_unfiltered_rows_names_the_filter(tmp_path):
+    """Inverse dynamic rows from unfiltered 16-bit encoder angles (qdd by double differences) contradict
+    a bound the filtered rows respect; the message names [preprocessing] lowpass_cutoff_hz, the real fix,
+    rather than a larger e_max alone."""
+    text = tiny_study("unfiltered", 2, ("inverse_dynamic",)) + """
+[[estimators]]
+method = "wls"
+label = "WLS"
+regressions = ["inverse_dynamic"]
+
+[exact]
+regression = "inverse_dynamic"
+e_max = 2.0
+lp_bounds = false
+"""
+    _, r = run_study_text(tmp_path, "unfiltered", text)
+    assert not r.exact.consistent
+    assert "set [preprocessing] lowpass_cutoff_hz" in r.exact.errors["bounds"]

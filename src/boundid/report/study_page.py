@@ -62,6 +62,11 @@ def _setup(r: StudyResult) -> dict:
         setup["torque noise"] = "none" if n.kind == "none" else f"{n.kind}, level {n.level:g} N m"
         setup["encoder"] = f"{exp.encoder_counts_per_rev} counts/rev" if exp.encoder_counts_per_rev else "exact"
     setup["regressions"] = ", ".join(f"{k} ({v.n_rows} rows, {v.unit})" for k, v in r.regressions.items())
+    for k, v in r.regressions.items():
+        if v.dropped is not None and v.dropped.rows:
+            d = v.dropped
+            setup[f"{k} rows dropped"] = (f"{d.rows} of {d.of} ({100 * d.share:.3g} %; per joint "
+                                          f"{', '.join(map(str, d.per_joint))}): {d.reason}")
     for key, value in r.data.info.items():
         if isinstance(value, int | float):
             setup[key.replace("_", " ")] = f"{value:.4g}"

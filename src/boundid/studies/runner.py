@@ -86,6 +86,15 @@ def _reason(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
+def _unfiltered_hint(cfg: StudyConfig, reg: Regression) -> str:
+    """The likelier fix than a larger bound when inverse dynamic rows come from unfiltered angles."""
+    if reg.model != "inverse_dynamic" or cfg.preprocessing.lowpass_cutoff_hz is not None:
+        return ""
+    return ("; these inverse dynamic rows differentiate the angles twice without a low-pass filter, which "
+            "amplifies the encoder's steps into qdd: set [preprocessing] lowpass_cutoff_hz (a few times the "
+            "motion's bandwidth) before enlarging e_max")
+
+
 def exact_bound(cfg: StudyConfig, reg: Regression, model: RobotModel) -> tuple[float | np.ndarray,
                                                                                  GammaStar | None]:
     """The exact regression's bound: [exact] e_max, or its rule's per-row bounds (N,), and gamma*
@@ -126,7 +135,8 @@ def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, set_estim
         return res
     if not res.consistent:
         res.errors["bounds"] = (f"the data contradict the bound e_max = {res.bound_text()}: the bounds must grow by "
-                                f"a factor {gamma:.4g} for any parameter vector of the prior box to satisfy every row")
+                                f"a factor {gamma:.4g} for any parameter vector of the prior box to satisfy every row"
+                                + _unfiltered_hint(cfg, reg))
         with progress.stage(f"{cfg.name}: minimum number of outliers ({reg.n_rows} rows)"):
             try:
                 res.outliers = min_outliers(reg.W, reg.y, e_max, box, time_limit=OUTLIER_TIME_LIMIT_S)
