@@ -16,7 +16,7 @@ from boundid.errors import InputError, StudyError
 from boundid.experiments.regression import Regression
 from boundid.report.verdict import run_verdict
 from boundid.sets import Polytope
-from boundid.studies.bounds import DEFAULT_RULE, SCALINGS, BoundRule, gamma_star, where_rows_sit
+from boundid.studies.bounds import DEFAULT_RULE, SCALINGS, BoundRule, bound_sweep, gamma_star, where_rows_sit
 from boundid.studies.config import load_study
 from tiny_study import measured_twin, run_study_text, tiny_study
 
@@ -233,3 +233,20 @@ lp_bounds = false
     _, r = run_study_text(tmp_path, "unfiltered", text)
     assert not r.exact.consistent
     assert "set [preprocessing] lowpass_cutoff_hz" in r.exact.errors["bounds"]
+
+
+def test_bound_sweep_against_the_polytope_and_the_residuals():
+    """Reference: Polytope.bounds at each factor's bounds and the residuals of the reference point,
+    computed here; widths grow with the bound, and the Chebyshev fit of one bound on every row
+    violates no row of that scaling from factor 1."""
+    reg, box = _regression(seed=2)
+    gs = gamma_star(reg, box)
+    rows = bound_sweep(reg, box, gs, "wls_spread", {"Chebyshev": gs.chebyshev, "zero": np.zeros(4)},
+                       factors=(1.2, 3.0))
+    e = 3.0 * gs.smallest("wls_spread", reg.joint)
+    b = Polytope.from_strips(reg.W, reg.y, e, box=box).bounds()
+    assert rows[1]["mean width / prior"] == pytest.approx(np.mean((b.hi - b.lo) / (box[1] - box[0])), rel=1e-9)
+    assert rows[0]["mean width / prior"] < rows[1]["mean width / prior"]
+    assert rows[1]["rows zero violates"] == int(np.sum(np.abs(reg.y) > e))
+    one = bound_sweep(reg, box, gs, "one", {"Chebyshev": gs.chebyshev}, factors=(1.01, 2.0))
+    assert one[0]["rows Chebyshev violates"] == one[1]["rows Chebyshev violates"] == 0

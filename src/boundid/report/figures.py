@@ -500,3 +500,34 @@ def volume_history(histories: Mapping[str, object], t=None, *, max_points: int =
     ax.grid(alpha=0.3)
     fig.legend(loc="outside upper center", fontsize=8, ncols=min(drawn, 4), frameon=False)
     return fig
+
+
+def bound_sweep(rows: list[dict]) -> Figure:
+    """What the bound changes (:func:`boundid.studies.bounds.bound_sweep` rows): the exact intervals'
+    widths over the prior box's, and the rows each reference point violates, against the factor over
+    the smallest consistent bounds (log axis)."""
+    if not rows:
+        raise InputError("bound_sweep needs at least one row.")
+    f = np.array([r["factor"] for r in rows])
+    fig = Figure(figsize=(9.0, 3.4), dpi=DPI, layout="constrained")
+    left, right = fig.subplots(1, 2)
+    for key, ls, marker, color in (("mean width / prior", "-", "o", PALETTE["LP exact"]),
+                                   ("median width / prior", "--", "s", "#888888")):
+        left.semilogx(f, [r[key] for r in rows], ls=ls, marker=marker, color=color, label=key)
+    left.set_ylabel("exact interval width / prior box width")
+    left.set_ylim(bottom=0.0)
+    left.legend(fontsize=8)
+    refs = [k for k in rows[0] if k.startswith("rows ")]
+    for i, key in enumerate(refs):
+        label = key.removeprefix("rows ").removesuffix(" violates")
+        right.semilogx(f, [r[key] for r in rows], marker="os^"[i % 3], color=color_for(label), label=label)
+    right.set_ylabel("rows outside their bound")
+    right.set_ylim(bottom=0.0)
+    if refs:
+        right.legend(fontsize=8, title="point", title_fontsize=8)
+    for ax in (left, right):
+        ax.set_xlabel("e_max / smallest consistent bound")
+        ax.set_xticks(f, [f"{v:g}" for v in f], minor=False)
+        ax.minorticks_off()
+        ax.grid(alpha=0.3)
+    return fig

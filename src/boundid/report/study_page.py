@@ -23,7 +23,7 @@ from boundid.report.html import Page
 from boundid.report.output import replace_folder
 from boundid.report.tables import deviation_percent, estimate_summary, parameter_table
 from boundid.sets import log_unit_ball_volume
-from boundid.studies.bounds import where_rows_sit
+from boundid.studies.bounds import bound_sweep, where_rows_sit
 from boundid.studies.certify_files import certificate_row
 from boundid.studies.reproduction import VERDICTS, Claim, claims, prior_bounds, shrank
 from boundid.studies.runner import Failure, StudyResult, reference_values
@@ -345,6 +345,15 @@ def _bound_section(page: Page, r: StudyResult) -> None:
                + ", ".join(f"{n} {w}" for w, n in counts.items()) + ". Rows at velocity reversals and stops carry "
                "the friction model's error (sign(qd) against stiction); at the start and end, the filters' edges.",
                name="active_rows")
+    if ex.consistent and ex.bounds is not None:
+        scaling = ex.rule.scaling if ex.rule is not None else "one"
+        points = {lab: e.center for (lab, rn), e in r.estimates.items()
+                  if rn == ex.regression and e.kind == "statistical"}
+        sweep = bound_sweep(reg, ex.polytope.box, ev, scaling, points)
+        page.figure(F.bound_sweep(sweep), f"What the bound changes ({scaling} scaling): left, the exact feasible set's "
+                    "interval widths over the prior box's (2p LPs per bound); right, the rows each statistical "
+                    "estimate's centre puts outside their bound. A larger bound is safer and wider; a centre that "
+                    "violates rows at the chosen bound is not a point of the guaranteed set.", name="bound-sweep")
     if ex.outliers is not None and ex.outliers.n_outliers:
         o = ex.outliers
         dropped = pd.DataFrame(where_rows_sit(reg, rec.t, rec.q, rec.tau, o.dropped[:30])).set_index("row")

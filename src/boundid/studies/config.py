@@ -273,6 +273,9 @@ def _estimator(sec: Section, regressions: tuple[str, ...]) -> EstimatorConfig:
 def _exact_bound(ex: Section) -> tuple[float | None, BoundRule | None]:
     """[exact] e_max, a number, or e_max_rule, a table { factor = ..., scaling = ... } (both keys
     optional: :data:`boundid.studies.bounds.DEFAULT_RULE`); load_study refuses both at once."""
+    if isinstance(ex.data.get("e_max"), dict):
+        raise ex.error("e_max", "is one number for every row; a rule (a factor times gamma*) is written "
+                                "e_max_rule = { factor = 2.0, scaling = \"one\" }.")
     e_max = ex.float("e_max", None, lo=0.0, strict_lo=True)
     given = ex.has("e_max_rule")
     rule = ex.section("e_max_rule")
