@@ -18,7 +18,8 @@ STUDIES = sorted((ROOT / "studies").glob("*.toml")) + sorted((ROOT / "studies" /
 
 def _paths(data: dict, prefix: str = "") -> set[str]:
     """Dotted paths of every key of a parsed TOML file, "[]" after an array of tables; the free-form
-    [paper] table and option tables (checked against their defaults) are not walked into."""
+    [paper] table, option tables (checked against their defaults) and the name tables of [[published]]
+    (values, names: keyed by the source's parameter names) are not walked into."""
     out = set()
     for key, value in data.items():
         path = f"{prefix}{key}"
@@ -28,7 +29,7 @@ def _paths(data: dict, prefix: str = "") -> set[str]:
                 out |= _paths(v, f"{path}[].")
         else:
             out.add(path)
-            if isinstance(value, dict) and key not in ("paper", "options"):
+            if isinstance(value, dict) and key not in ("paper", "options", "values", "names"):
                 out |= _paths(value, f"{path}.")
     return out
 

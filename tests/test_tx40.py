@@ -10,6 +10,7 @@ here only that the study writes the same one.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +38,8 @@ PUBLISHED = {"fv1": 8.05, "fv2": 5.53, "fv3": 1.97, "fv4": 1.11, "fv5": 1.86 - 0
 @pytest.fixture(scope="module")
 def tx40():
     cfg = load_study(STUDY)
+    m = cfg.experiment.measured
+    cfg = replace(cfg, experiment=replace(cfg.experiment, measured=replace(m, holdout_fraction=0.0)))  # all of it
     model = make_robot(cfg.robot, cfg.robot_options)
     rec = acquire(cfg, model, np.random.default_rng(cfg.seed)).recording
     reg = build_regressions(model, rec, cfg.preprocessing, ("inverse_dynamic",))["inverse_dynamic"]
@@ -128,3 +131,30 @@ def test_page_counts_the_listed_reference_values(tx40):
     inside = int(np.sum((lo[listed] <= ref[listed]) & (ref[listed] <= hi[listed])))
     row = estimate_summary({"WLS": est}, ref).loc["WLS"]
     assert row["truth in set"] == row["truth in intervals"] == f"{inside} of {int(listed.sum())} intervals"
+
+
+def test_published_tables_map_onto_the_base_parameters(tx40):
+    """FIGAROH's 60 base parameters (its definitions, in standard parameters) are all combinations of
+    this model's base parameters, 57 of them one parameter each (its fv5, fv6 and Ia5 include the coupled
+    motor's); the configuration's values, read through the study file's names, give the reference values
+    the study lists by this model's names (fv5 = 1.86 - 0.616 ...), a second route to the same numbers."""
+    from boundid.studies.published import functional
+
+    cfg, model, _, _, _ = tx40
+    tables = {t.label: t for t in cfg.published}
+    figaroh = tables["FIGAROH OLS"]
+    cs = [functional(figaroh.names.get(n, n), model) for n, _ in figaroh.entries]
+    assert len(cs) == 60 and all(c is not None for c in cs)
+    assert sum(int(np.sum(np.abs(c) > 1e-9) == 1) for c in cs) == 57
+    config = tables["T40X_config"]
+    ref = cfg.paper["reference_values"]
+    beta = np.array([ref.get(n, 0.0) for n in model.param_names])
+    checked = 0
+    for name, value in config.entries:
+        c = functional(config.names.get(name, name), model)
+        if c is None:
+            assert name in ("Ia1", "Ia2")  # inside Izz1R, Izz2R
+            continue
+        assert c @ beta == pytest.approx(value, rel=1e-9, abs=1e-12), name
+        checked += 1
+    assert checked == 25

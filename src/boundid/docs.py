@@ -163,6 +163,22 @@ DESCRIPTIONS = {
                             "(support LPs of P; its cost grows fast with p), so each set's excess over it is "
                             "bracketed on the page.",
     "exact.projections": "Pairs of parameter names whose 2-D projections of the sets are drawn.",
+    "experiment.measured.holdout_fraction": "Share of the recording, at its end, kept out of identification "
+                                            "(held-out validation): every estimate and the exact polytope "
+                                            "predict its torques, with each band's coverage and width. 0: none.",
+    "published[]": "A published table of the robot's parameter values ([[published]], one per table), held "
+                   "against the data on the page: each value inside its exact interval or not, and the smallest "
+                   "bound at which the data allow it.",
+    "published[].label": "The table's name on the page (e.g. \"FIGAROH, first estimate\").",
+    "published[].source": "Where the values come from: a citation key of docs/references.md and the table.",
+    "published[].file": "A CSV file of names and values, relative to the study file (exclusive with values).",
+    "published[].header": "Whether the file's first line is a header (skipped).",
+    "published[].name_column": "The file's column of names (from 0): a parameter name, or a base parameter's "
+                               "definition in standard parameters (\"Izz1 + 1.0*Ia1 + 0.05185*m3\").",
+    "published[].value_column": "The file's column of values (from 0), in SI units as the model's.",
+    "published[].values": "The values inline, {name = number} (exclusive with file).",
+    "published[].names": "A source name -> the same quantity in the model's parameter names, where the two "
+                         "models differ: {fs1 = \"fc1\", fv5 = \"fv5 + fvm6\"}.",
     "paper": "The paper's published values for the page's comparison table (free-form table).",
     "campaign": "A Monte Carlo campaign (boundid campaign): replicates of noise scenarios.",
     "campaign.replicates": "Replicates per scenario (the command's --replicates overrides it).",

@@ -229,15 +229,29 @@ def _validation_section(page: Page, r: StudyResult) -> None:
     if "torque_bands" in v and v["torque_bands"]:
         bands, measured, t = v["torque_bands"], v["validation_measured"], v["validation_t"]
         eq = " of eq. (37)" if r.config.robot == "h4" else ""  # the H4 paper's equation
-        page.section(f"Cross-validation: torque bounds{eq}",
-                     "On a trajectory not used for identification, the guaranteed torque bounds "
-                     "y = w^T theta_hat +- sqrt(w^T M^-1 w) of the OBE ([H4Paper] eq. 37), beside the 95 % "
-                     "prediction band of WLS.")
-        rows = {lab: {"kind": b.kind, "samples outside [%]": 100 * b.outside_fraction(measured),
+        held = r.data.info.get("held out")
+        if held is None:
+            page.section(f"Cross-validation: torque bounds{eq}",
+                         "On a trajectory not used for identification, the guaranteed torque bounds "
+                         "y = w^T theta_hat +- sqrt(w^T M^-1 w) of the OBE ([H4Paper] eq. 37), beside the 95 % "
+                         "prediction band of WLS.")
+        else:
+            page.section("Held-out validation: predicted torques",
+                         f"Identified without {held}, every estimate predicts that part's torques. A guaranteed "
+                         "band is [min, max] of w^T theta over the set (the exact one: over the feasible "
+                         "polytope, 2 LPs per row; the OBE's: eq. (37) of [H4Paper]); under the bound the "
+                         "measured torque lies within e_max of it. The statistical bands are 95 % prediction "
+                         "bands of the measured torque. Coverage is of the measured torques: on measured data "
+                         "nothing is known of the true torque.")
+        rows = {lab: {"kind": b.kind, "outside the band [%]": 100 * b.outside_fraction(measured),
+                      "outside the band +- e_max [%]": 100 * b.outside_measured_fraction(measured),
                       "mean half-width [N m]": float(np.nanmean(b.half_width))} for lab, b in bands.items()}
         page.table(pd.DataFrame.from_dict(rows, orient="index").rename_axis("estimate"),
-                   "Measured validation torques outside each band.", float_format="{:.3g}", name="crossval")
-        main = next((lab for lab, b in bands.items() if b.kind == "guaranteed"), next(iter(bands)))
+                   "Measured validation torques outside each band, and outside it widened by each joint's "
+                   "bound (NaN: a statistical band, which already predicts the measurement).",
+                   float_format="{:.3g}", name="crossval")
+        main = next((lab for kind in ("exact", "guaranteed") for lab, b in bands.items() if b.kind == kind),
+                    next(iter(bands)))
         extra = {f"{lab} 95 %": (b.lower, b.upper) for lab, b in bands.items()
                  if lab != main and b.kind == "statistical"}
         page.figure(F.torque_bounds(t, measured, bands[main].lower, bands[main].upper,
@@ -530,6 +544,16 @@ def findings(r: StudyResult, verdicts: list[Claim], failures: list[Failure]) -> 
                 + f"{float(np.mean(c.width_ratio)):.3g} x)" for lab, c in certs.items())
     if ex is not None and ex.physical is not None:
         out["physically consistent bounds"] = _physical_finding(ex.physical)
+    if ex is not None and ex.evidence is not None and r.config.experiment.source == "measured":
+        out["rows that decide gamma*"] = _active_rows_finding(r)
+        wider = _wider_than_confidence(r)
+        if wider:
+            out["guaranteed / confidence width"] = wider
+    if r.published is not None:
+        out["published values"] = _published_finding(r)
+    held = _held_out_finding(r)
+    if held:
+        out["held-out torques"] = held
     if verdicts:
         counts = {v: sum(c.verdict == v for c in verdicts) for v in VERDICTS}
         out["paper claims"] = ", ".join(f"{n} {v}" for v, n in counts.items() if n) + " (table below)"
@@ -706,6 +730,8 @@ def _page(r: StudyResult) -> Page:
         _exact_section(page, r, guard)
     with guard("section", "physically consistent bounds"):
         _physical_section(page, r)
+    with guard("section", "published values"):
+        _published_section(page, r)
     with guard("section", "OBE breakdown rate"):
         _sweep_section(page, r)
     box["failures"] = "none" if not failures else f"{len(failures)}, listed in the last section"
@@ -719,6 +745,114 @@ def _page(r: StudyResult) -> Page:
                    "Failures of the run and of the page.", name="failures")
     page.setup.update({"failures": box["failures"]})
     return page
+
+
+def in_bound_units(ex, s: float) -> str:
+    """A factor s of the chosen bound in words: "2.21 x gamma* (1.1 x e_max)" under a rule (s x its
+    factor, in its scaling's smallest bounds), "1.1 x e_max" for a number."""
+    if not np.isfinite(s):
+        return "never (the prior box excludes it)" if s == np.inf else "not computed"
+    if ex.rule is None:
+        return f"{s:.3g} x e_max"
+    return f"{s * ex.rule.factor:.3g} x gamma* ({s:.3g} x e_max)"
+
+
+def _active_rows_finding(r: StudyResult) -> str:
+    """How many rows decide gamma* and where they sit (velocity reversals, stops, the edges ...)."""
+    ex, rec = r.exact, r.data.recording
+    reg = r.regressions[ex.regression]
+    sits = pd.DataFrame(where_rows_sit(reg, rec.t, rec.q, rec.tau, ex.evidence.active))
+    counts = sits["where"].value_counts() if len(sits) else pd.Series(dtype=int)
+    return (f"{len(sits)} rows of {reg.n_rows} hold the Chebyshev fit at gamma*: "
+            + ", ".join(f"{n} {w}" for w, n in counts.items()) + " (Choosing the bound)")
+
+
+def _wider_than_confidence(r: StudyResult) -> str:
+    """Median over parameters of each guaranteed interval's width (clipped to the prior box) over the
+    first statistical estimate's confidence interval width, on the exact regression."""
+    ex = r.exact
+    stats = [(lab, e) for (lab, rn), e in r.estimates.items() if rn == ex.regression and e.kind == "statistical"]
+    if not stats or ex.bounds is None:
+        return ""
+    slab, st = stats[0]
+    ci = st.intervals[1] - st.intervals[0]
+    sets = {"exact": (ex.bounds.lo, ex.bounds.hi)}
+    sets |= {lab: clipped_intervals(e, ex.polytope.box) for (lab, rn), e in r.estimates.items()
+             if rn == ex.regression and e.set_membership}
+    level = f"{100 * st.level:g} %" if st.level else "confidence"
+    return (f"median over parameters of the interval width over the {slab} {level} interval: "
+            + ", ".join(f"{lab} {np.median((hi - lo) / ci):.3g} x" for lab, (lo, hi) in sets.items()))
+
+
+def _held_out_finding(r: StudyResult) -> str:
+    """The held-out part of a measured recording: each band's coverage of the measured torques and
+    its mean half-width ("" without a held-out part)."""
+    v = r.validation
+    if r.data.info.get("held out") is None or not v.get("torque_bands"):
+        return ""
+    m = v["validation_measured"]
+    parts = []
+    for lab, b in v["torque_bands"].items():
+        inside = 100 * (1 - (b.outside_fraction(m) if b.error_bound is None else b.outside_measured_fraction(m)))
+        widened = "" if b.error_bound is None else " +- e_max"
+        parts.append(f"{lab}{widened} holds {inside:.3g} % (half-width {np.nanmean(b.half_width):.3g} N m)")
+    return f"{r.data.info['held out']}: " + "; ".join(parts) + " of the measured torques"
+
+
+def _published_finding(r: StudyResult) -> str:
+    """Each table as a whole: from which bound the data allow all its values (and whether it is the
+    chosen one), and the values that lie outside their exact intervals alone."""
+    pub, ex = r.published, r.exact
+    if ex is None or ex.bounds is None:
+        return "not compared with exact intervals: the data contradict the bound"
+    parts = []
+    for _, t in pub.tables.iterrows():
+        verdict = "consistent at the chosen bound" if t["together from"] <= 1 else "CONTRADICTED at the chosen bound"
+        parts.append(f"{t['published']} ({t['comparable']} values) allowed from "
+                     f"{in_bound_units(ex, t['together from'])}, {verdict}")
+    v = pub.values
+    alone, comparable = v["inside exact"].eq("yes").sum(), v["inside exact"].isin(["yes", "no"]).sum()
+    text = (f"as whole tables: {'; '.join(parts)}. Alone (every other parameter free), {alone} of {comparable} "
+            "values lie inside their exact intervals")
+    if "inside physical" in v:
+        out = v[v["inside physical"].eq("no")]
+        if len(out):
+            text += "; outside the physically consistent interval: " + ", ".join(
+                f"{t} {q} = {x:.4g}" for t, q, x in zip(out["published"], out["quantity"], out["value"], strict=True))
+    return text
+
+
+def _published_section(page: Page, r: StudyResult) -> None:
+    """The published tables against the data (:mod:`boundid.studies.published`)."""
+    pub, ex = r.published, r.exact
+    if pub is None:
+        return
+    page.section("Published values against the data",
+                 "Each published value is a combination c^T theta of this model's base parameters (where the "
+                 "source's model differs, the study file says which). Alone, a value is allowed by the data if it "
+                 "lies in its exact interval [min, max] of c^T theta over the feasible polytope; but that leaves "
+                 "every other parameter free. A table as a whole is allowed when one parameter vector takes all its "
+                 "values at once and satisfies every row: one LP gives the smallest factor of the bound from which "
+                 "that holds (gamma* with the table's values fixed). A table allowed only above the chosen bound "
+                 "is contradicted by the data at that bound: its values cannot all be right unless the errors are "
+                 "larger than e_max.")
+    summary = pub.tables.set_index("published")
+    if ex is not None and ex.bounds is not None:
+        summary["together"] = [in_bound_units(ex, s) for s in summary["together from"]]
+    page.table(summary, "Each published table against the data: its values, those that are combinations of the base "
+               "parameters, those inside their exact intervals and (for a single parameter) inside the physically "
+               "consistent ones, and the factor of the chosen bound from which the data allow all of them together.",
+               float_format="{:.4g}", name="published-tables")
+    cols = [c for c in ("published", "name", "quantity", "value", "exact lo", "exact hi", "inside exact",
+                        "inside physical", "from bound") if c in pub.values]
+    cols += [c for c in pub.values if c.endswith("- value [%]")]
+    page.section("Every published value", folded=f"{len(pub.values)} values: each one's exact interval, the bound "
+                 "from which the data allow it alone, and the estimates' differences from it")
+    page.table(pub.values[cols].set_index("published"),
+               "Every published value: the quantity in this model's base parameters, its exact interval, inside it "
+               "(and inside the physically consistent interval, for a single parameter), the factor of the chosen "
+               "bound from which the data allow the value alone, and each estimate's centre minus the value, in % "
+               "of the value.", float_format="{:.4g}", name="published-values")
 
 
 def _physical_finding(ph) -> str:

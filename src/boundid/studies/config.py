@@ -29,6 +29,7 @@ from boundid.models import RobotModel
 from boundid.models import registry as robots
 from boundid.studies import sizing
 from boundid.studies.bounds import DEFAULT_RULE, SCALINGS, BoundRule
+from boundid.studies.published import check_published, read_published
 from boundid.studies.registry import experiment_options, make_robot
 from boundid.studies.scenarios import read_campaign, read_torque_noise
 from boundid.studies.schema import Section, range_text, read_toml
@@ -49,6 +50,8 @@ class MeasuredData:
     time : the time column of ``file`` [``time_unit``], or None with ``sample_period_s`` [s]
     q, tau : one position column [``angle_unit``] and one torque column per joint (or motor):
         joint side [N m], or motor side converted by ``transmission``
+    holdout_fraction : the share of the recording, at its end, kept out of identification: its
+        torques are predicted by every estimate and the exact polytope (0: none)
     """
 
     file: Path
@@ -60,6 +63,7 @@ class MeasuredData:
     angle_unit: str = "rad"  # | "deg"
     time_unit: str = "s"  # | "ms"
     transmission: Transmission | None = None
+    holdout_fraction: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -179,6 +183,7 @@ class StudyConfig:
     exact: ExactConfig
     paper: dict
     file: Path
+    published: tuple = ()  # boundid.studies.published.PublishedTable, one per [[published]] table
 
     def styles(self) -> dict[str, Style]:
         """{estimator label: the style of its method and options} (what the report draws it with)."""
@@ -341,6 +346,7 @@ def _experiment(sec: Section, base: Path) -> ExperimentConfig:
         time, q, tau = cols.str("time", None), tuple(cols.list("q")), tuple(cols.list("tau"))
         cols.check_unknown()
         transmission = _transmission(m.section("transmission"), len(q)) if m.has("transmission") else None
+        holdout = m.float("holdout_fraction", 0.0, lo=0.0, hi=0.5)
         m.check_unknown()
         if not q:
             raise cols.error("q", "names no column: give one position column per joint.")
@@ -355,7 +361,7 @@ def _experiment(sec: Section, base: Path) -> ExperimentConfig:
         measured = MeasuredData(file=(base / file).resolve(), time=time, q=q, tau=tau,
                                 tau_file=None if tau_file is None else (base / tau_file).resolve(),
                                 sample_period_s=period, angle_unit=angle_unit, time_unit=time_unit,
-                                transmission=transmission)
+                                transmission=transmission, holdout_fraction=holdout)
         sec.check_unknown()
         return ExperimentConfig(source="measured", measured=measured)
     noise = sec.section("noise")
@@ -534,6 +540,7 @@ def load_study(path: str | Path) -> StudyConfig:
         exact=exact,
         paper=dict(top.raw("paper", {})),
         file=path,
+        published=read_published(top, path.parent),
     )
     if top.has("campaign"):  # boundid campaign's schema, refused here as there
         read_campaign(top.section("campaign"), labels)
@@ -544,4 +551,5 @@ def load_study(path: str | Path) -> StudyConfig:
     cfg = replace(cfg, estimators=tuple(_bind_estimators(ex, exact, list(estimators), estimator_sections)))
     _check_size(cfg, model)
     _check_prior(cfg, model)
+    check_published(cfg.published, model, path)
     return cfg

@@ -33,6 +33,29 @@ class StudyData:
     clean_tau: np.ndarray | None = None
 
 
+def split_recording(rec: Recording, holdout_fraction: float) -> tuple[Recording, Recording | None]:
+    """(identification, held out): the recording's first 1 - holdout_fraction and its last
+    holdout_fraction of samples (None for 0), each filtered on its own by the regressions."""
+    if holdout_fraction <= 0:
+        return rec, None
+    k = int(round((1.0 - holdout_fraction) * rec.t.size))
+    return (Recording(rec.t[:k], rec.q[:k], rec.tau[:k]), Recording(rec.t[k:], rec.q[k:], rec.tau[k:]))
+
+
+def _check_held_out(held_out: Recording, fraction: float, n_joints: int, pp, where: str) -> None:
+    """StudyError when the held-out part is too short for one inverse dynamic row (its own filters'
+    edges are dropped too), naming the fraction that would give some."""
+    span = float(held_out.t[-1] - held_out.t[0])
+    need = sizing.minimum_duration(held_out.h, n_joints, n_joints, ("inverse_dynamic",), pp.lowpass_cutoff_hz,
+                                   pp.decimation)["inverse_dynamic"]
+    if span < need * (1.0 + 1e-9):
+        total = span / fraction
+        raise StudyError(f"{where}: holdout_fraction = {fraction:g} keeps {span:.3g} s out, too short for one "
+                         f"inverse dynamic row once its filters' edges are dropped (it needs more than {need:.3g} s): "
+                         f"raise it to at least {min(0.5, 1.05 * need / total):.2g}"
+                         + (" or record longer." if 1.05 * need / total > 0.5 else "."))
+
+
 def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:
     """Simulate (open or closed loop) and measure, or read the study's recording."""
     exp = cfg.experiment
@@ -43,13 +66,19 @@ def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> St
         if rec.n_joints != model.n_joints:
             raise StudyError(f"{cfg.file}: the recording has {rec.n_joints} joints, the {model.name} model "
                              f"{model.n_joints}; map one q and one tau column per joint.")
+        rec, held_out = split_recording(rec, m.holdout_fraction)
         pp, where = cfg.preprocessing, f"{cfg.file}: the recording {m.file.name}"
         if "inverse_dynamic" in cfg.regressions:
             sizing.check_cutoff(rec.h, pp.lowpass_cutoff_hz, pp.decimation, f"{where} at h = {rec.h:g} s")
         sizing.check_budget(rec.t.size, rec.n_joints, model.p, len(cfg.regressions), where)
         sizing.check_length(float(rec.t[-1] - rec.t[0]), rec.h, model.n_joints, model.p, cfg.regressions,
                             pp.lowpass_cutoff_hz, pp.decimation, f"{where} ({rec.t.size} samples)")
-        return StudyData(recording=rec, info={"source": " + ".join(str(f) for f in (m.file, m.tau_file) if f)})
+        info = {"source": " + ".join(str(f) for f in (m.file, m.tau_file) if f)}
+        if held_out is not None:
+            info["held out"] = (f"the last {100 * m.holdout_fraction:g} % of the recording "
+                                f"({held_out.t[0]:.4g}-{held_out.t[-1]:.4g} s), kept out of identification")
+            _check_held_out(held_out, m.holdout_fraction, model.n_joints, pp, where)
+        return StudyData(recording=rec, validation=held_out, info=info)
     if exp.control == "open_loop":
         return _open_loop(cfg, model, rng)
     if exp.control == "tracking":

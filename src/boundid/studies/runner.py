@@ -22,6 +22,7 @@ from boundid.studies.data import StudyData, acquire
 from boundid.studies.estimation import run_estimator
 from boundid.studies.physical_stage import PhysicalResult, physical_stage
 from boundid.studies.progress import QUIET, Progress
+from boundid.studies.published import PublishedComparison, compare_published
 from boundid.studies.registry import make_robot
 from boundid.studies.regressions import build_regressions
 from boundid.studies.validation import validate_study
@@ -208,6 +209,7 @@ class StudyResult:
     validation: dict
     table: pd.DataFrame
     timings: dict[str, float]
+    published: PublishedComparison | None = None
 
 
 def reference_values(cfg: StudyConfig, model: RobotModel) -> tuple[np.ndarray, str] | None:
@@ -264,6 +266,36 @@ def tidy_table(cfg: StudyConfig, model: RobotModel, estimates: dict[tuple[str, s
     return table
 
 
+def _published(cfg: StudyConfig, model: RobotModel, exact: ExactResult | None,
+               estimates: dict[tuple[str, str], Estimate]) -> PublishedComparison:
+    """The study's published tables against the exact polytope (when the data respect the bound), the
+    physically consistent intervals and the centres of the estimates on the exact regression
+    (:func:`boundid.studies.published.compare_published`)."""
+    usable = exact is not None and exact.bounds is not None
+    regname = exact.regression if exact is not None else None
+    centers = {lab: e.center for (lab, rn), e in estimates.items() if rn == regname or regname is None}
+    physical = exact.physical.intervals if usable and exact.physical is not None else None
+    return compare_published(cfg.published, model, exact.polytope if usable else None, physical, centers)
+
+
+def _validation_bounds(cfg: StudyConfig, exact: ExactResult | None, bound_of: dict, regressions: dict,
+                       n_joints: int) -> tuple[Polytope | None, dict[str, np.ndarray]]:
+    """What the cross-validation bands need from the exact stage: the feasible polytope of the inverse
+    dynamic rows (None unless that is the exact regression and its data respect the bound) and each
+    set-membership band's bound per joint (n,): a number for every joint, or a per-row bound of the
+    exact regression's rows (a rule's) read per joint."""
+    out = {}
+    for label, e in [*bound_of.items(), *([("LP exact", exact.e_max)] if exact is not None else [])]:
+        e = np.asarray(e, dtype=float)
+        if e.ndim == 0:
+            out[label] = np.full(n_joints, float(e))
+        elif exact is not None:
+            joint = regressions[exact.regression].joint
+            out[label] = np.array([e[joint == j].max() if np.any(joint == j) else np.nan for j in range(n_joints)])
+    usable = (exact is not None and exact.regression == "inverse_dynamic" and exact.bounds is not None)
+    return (exact.polytope if usable else None), out
+
+
 def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
     """Run every stage of a study; nothing is written (see :mod:`boundid.report.study_page`)."""
     timings: dict[str, float] = {}
@@ -292,6 +324,7 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
         timings["gamma_star"] = time.perf_counter() - t0
 
     estimates: dict[tuple[str, str], Estimate] = {}
+    bound_of: dict[str, float | np.ndarray] = {}  # each set-membership estimator's bound (scalar or per row)
     t0 = time.perf_counter()
     for ec in cfg.estimators:
         if ec.bound_from_exact:
@@ -299,6 +332,8 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
                 failures.append(Failure("estimator", ec.label, "no bound: gamma* of the exact regression failed"))
                 continue
             ec = replace(ec, e_max=bound)
+        if ec.e_max is not None:
+            bound_of[ec.label] = ec.e_max
         for regname in ec.regressions:
             with progress.stage(f"{cfg.name}: {ec.label} on {regname}"):
                 try:
@@ -333,10 +368,18 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
                         failures.append(Failure("physical consistency", cfg.exact.regression, exact.physical.error))
             timings["physical"] = time.perf_counter() - t0
 
+    published = None
+    if cfg.published:
+        t0 = time.perf_counter()
+        with progress.stage(f"{cfg.name}: published values against the data"):
+            published = _published(cfg, model, exact, estimates)
+        timings["published"] = time.perf_counter() - t0
+
     t0 = time.perf_counter()
     with progress.stage(f"{cfg.name}: validation"):
+        polytope, error_bounds = _validation_bounds(cfg, exact, bound_of, regressions, model.n_joints)
         try:
-            validation = validate_study(cfg, model, data, estimates)
+            validation = validate_study(cfg, model, data, estimates, polytope, error_bounds)
         except RUN_FAILURES as exc:
             validation = {}
             failures.append(Failure("validation", "cross-validation trajectory", _reason(exc)))
@@ -344,4 +387,4 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
                  if rs.failure is not None]
     timings["validation"] = time.perf_counter() - t0
     return StudyResult(cfg, model, data, regressions, estimates, failures, exact, validation,
-                       tidy_table(cfg, model, estimates, exact), timings)
+                       tidy_table(cfg, model, estimates, exact), timings, published)

@@ -23,7 +23,7 @@ from boundid.errors import RUN_FAILURES
 from boundid.estimators import Estimate
 from boundid.experiments.simulation import simulate_open_loop
 from boundid.models import RobotModel
-from boundid.sets import support_values
+from boundid.sets import Polytope, support_values
 from boundid.studies.config import StudyConfig
 from boundid.studies.data import StudyData
 from boundid.studies.regressions import inverse_dynamic_design, inverse_dynamic_rows
@@ -41,18 +41,22 @@ class Resimulation:
 
 @dataclass
 class TorqueBand:
-    """Predicted torque on the validation trajectory, (N, n) N m each: the prediction
-    w^T theta_hat and the band [lower, upper] around it; ``kind`` the estimate's."""
+    """Predicted torque on the validation trajectory, (S, n) N m each: the prediction
+    w^T theta_hat and the band [lower, upper] around it; ``kind`` the estimate's ("exact" for the
+    feasible polytope's own band). error_bound (n,) N m, for a set-membership band: the bound on
+    |measured - w^T theta| of each joint's rows, so that under the bound the measured torque lies in
+    [lower - e, upper + e] (a statistical band already predicts the measured torque: None)."""
 
     label: str
     center: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
     kind: str
+    error_bound: np.ndarray | None = None
 
     @property
     def half_width(self) -> np.ndarray:
-        """Half the band's width (N, n) N m."""
+        """Half the band's width (S, n) N m."""
         return 0.5 * (self.upper - self.lower)
 
     def outside_fraction(self, measured: np.ndarray) -> float:
@@ -60,6 +64,15 @@ class TorqueBand:
         regression, are not counted)."""
         valid = ~np.isnan(measured)
         return float(np.mean(((measured < self.lower) | (measured > self.upper))[valid]))
+
+    def outside_measured_fraction(self, measured: np.ndarray) -> float:
+        """Share of the measured torques (S, n) outside [lower - e, upper + e], the band a measurement
+        must lie in under the bound e = ``error_bound``; NaN without one."""
+        if self.error_bound is None:
+            return float("nan")
+        valid = ~np.isnan(measured)
+        e = self.error_bound[None, :]
+        return float(np.mean(((measured < self.lower - e) | (measured > self.upper + e))[valid]))
 
 
 def _mass_matrix_pd(model: RobotModel, q: np.ndarray, theta: np.ndarray) -> bool:
@@ -92,13 +105,22 @@ def per_sample(values: np.ndarray, reg, n_joints: int) -> tuple[np.ndarray, np.n
     return out, t
 
 
-def torque_bands(reg, n_joints: int, estimates: dict[str, Estimate]) -> dict[str, TorqueBand]:
+def torque_bands(reg, n_joints: int, estimates: dict[str, Estimate], polytope: Polytope | None = None,
+                 error_bounds: dict[str, np.ndarray] | None = None) -> dict[str, TorqueBand]:
     """[H4Paper] eq. 37 bounds [-h_S(-w), h_S(w)] of each row w of the regression ``reg`` for
     set-membership estimates (guaranteed or unverified, any family), 95 % prediction bands w^T c +-
-    1.96 sqrt(w^T Cov w + noise variance) for statistical ones; point estimates get none. Each band
-    is (S, n) per sample (:func:`per_sample`)."""
+    1.96 sqrt(w^T Cov w + noise variance) for statistical ones; point estimates get none. With the
+    exact feasible polytope, its own band "LP exact" [min, max] of w^T theta over it (2 LPs per
+    row): the narrowest band any guaranteed set can give. Each band is (S, n) per sample
+    (:func:`per_sample`); error_bounds: label (or "LP exact") -> the bound (n,) of each joint's rows."""
     W, joint = reg.W, reg.joint
+    error_bounds = error_bounds or {}
     bands = {}
+    if polytope is not None:
+        upper, lower = polytope.supports(W), -polytope.supports(-W)
+        bands["LP exact"] = TorqueBand("LP exact", *(per_sample(a, reg, n_joints)[0]
+                                                     for a in (0.5 * (lower + upper), lower, upper)),
+                                       "exact", error_bounds.get("LP exact"))
     for label, est in estimates.items():
         center = W @ est.center
         if est.set_membership:
@@ -110,7 +132,7 @@ def torque_bands(reg, n_joints: int, estimates: dict[str, Estimate]) -> dict[str
         else:
             continue
         bands[label] = TorqueBand(label, *(per_sample(a, reg, n_joints)[0] for a in (center, lower, upper)),
-                                  est.kind)
+                                  est.kind, error_bounds.get(label) if est.set_membership else None)
     return bands
 
 
@@ -222,9 +244,13 @@ def obe_breakdown_sweep(cfg: StudyConfig, model: RobotModel, data: StudyData, n_
 
 
 def validate_study(cfg: StudyConfig, model: RobotModel, data: StudyData,
-                   estimates: dict[tuple[str, str], Estimate]) -> dict:
-    """Re-simulation, cross-validation bands, the second truth ("second_truth") and the OBE
-    breakdown sweep over ``SWEEP_SEEDS`` noise seeds ("obe_sweep")."""
+                   estimates: dict[tuple[str, str], Estimate], polytope: Polytope | None = None,
+                   error_bounds: dict[str, np.ndarray] | None = None) -> dict:
+    """Re-simulation, cross-validation bands (on the inverse dynamic rows of the validation
+    recording: a second experiment, or the held-out end of a measured one; with the exact
+    ``polytope`` of the inverse dynamic rows, its band too; error_bounds as :func:`torque_bands`),
+    the second truth ("second_truth") and the OBE breakdown sweep over ``SWEEP_SEEDS`` noise seeds
+    ("obe_sweep")."""
     out: dict = {"second_truth": second_truth(cfg, model),
                  "obe_sweep": obe_breakdown_sweep(cfg, model, data, SWEEP_SEEDS)}
     if data.excitation is not None:
@@ -236,5 +262,5 @@ def validate_study(cfg: StudyConfig, model: RobotModel, data: StudyData,
         ests = {lab: e for (lab, rn), e in estimates.items() if rn == "inverse_dynamic"}
         out["validation_regression"] = reg
         out["validation_measured"], out["validation_t"] = per_sample(reg.y, reg, model.n_joints)
-        out["torque_bands"] = torque_bands(reg, model.n_joints, ests)
+        out["torque_bands"] = torque_bands(reg, model.n_joints, ests, polytope, error_bounds)
     return out
