@@ -38,7 +38,9 @@ chooses the standard vector:
   (:func:`boundid.sets.physical.constrained_fit`, an LMI-constrained least squares; for a least
   squares estimate it is the constrained least squares of its own rows, whose residual sum of
   squares exceeds the estimate's by exactly that form, up to the scale of cov), and the estimate
-  itself goes to the tables only.
+  itself goes to the tables only. Its standard vector is again the nearest to the URDF's, or, when
+  Clarabel cannot place that one inside the thin set left by the projection's active links (seen
+  on the Staubli TX40), the projection's own standard vector (the lifted solution).
 """
 
 from __future__ import annotations
@@ -197,13 +199,16 @@ class Loadable:
         parameters, standard = theta without), True when they are its projection onto the
         physical set (the estimate has no loadable standard vector).
     why : when projected, why the estimate itself cannot be written; active : the constraints
-        active at the projection (labels).
+        active at the projection (labels); nearest : whether, of the standard vectors with its base
+        parameters, this is the one nearest the URDF's values (False: the projection's own, the
+        lifted solution, when Clarabel could not place that one within its tolerance).
     """
 
     standard: np.ndarray
     projected: bool
     why: str = ""
     active: tuple[str, ...] = ()
+    nearest: bool = True
 
 
 def loadable_standard(robot, theta, base: BaseParameters | None = None, cov=None) -> Loadable:
@@ -236,12 +241,15 @@ def loadable_standard(robot, theta, base: BaseParameters | None = None, cov=None
     hat = theta if base is None else base.base(theta)
     C_inv = _metric(cov, hat.shape[0])
     cons = export_constraints(robot, 2 * LINK_MARGIN)
-    fit, _, active = constrained_fit(C_inv, C_inv @ hat, cons if base is None else cons.lifted(base.K, base.symbols))
+    lifted_cons = cons if base is None else cons.lifted(base.K, base.symbols)
+    fit, lifted, active = constrained_fit(C_inv, C_inv @ hat, lifted_cons)
     x = fit if base is None else _nearest_standard(robot, export_constraints(robot), base, fit)
-    if x is None:
-        raise SolverError(f"the projection onto the physical set (margin {2 * LINK_MARGIN:g}) has no standard "
-                          f"vector with margin {LINK_MARGIN:g}; the conic solve was inaccurate.")
-    return Loadable(_checked(robot, x), True, why, active)
+    nearest = base is None or (x is not None and not link_problems(robot, x))
+    if not nearest:
+        # the set {x : K x = fit, margin} is thin (fit has the double margin only on its active links), and
+        # Clarabel's answer can miss it by its tolerance: the fit's own standard vector is one of its points
+        x = lifted
+    return Loadable(_checked(robot, x), True, why, active, nearest)
 
 
 def _checked(robot, x: np.ndarray) -> np.ndarray:
@@ -395,8 +403,10 @@ def export_files(robot, theta, folder: str | Path, base: BaseParameters | None =
     else:
         what = estimate
     mapped = ("" if base is None else " The base parameters fix combinations of the standard ones only: written are "
-              "the standard parameters nearest this URDF's values whose links are rigid bodies, the armature (a "
-              "joint property) taking what a combination leaves.")
+              + ("the standard parameters nearest this URDF's values whose links are rigid bodies, the armature (a "
+                 "joint property) taking what a combination leaves." if chosen.nearest else
+                 "the projection's own standard parameters (the lifted solution of the constrained fit; the ones "
+                 "nearest this URDF's values could not be placed within the solver's tolerance)."))
     urdf_note = (f"boundid export of {name}: {what}.{mapped} Every link written is a rigid body (mass > 0, principal "
                  "moments with A + B > C): pinocchio and MuJoCo load it as is, without balanceinertia. <dynamics "
                  f"damping friction>: viscous and Coulomb friction. Armature: in {name}_mujoco.xml.")
