@@ -466,3 +466,19 @@ def test_the_same_figure_gives_the_same_svg_file():
         page.figure(fig, "a figure", name="f")
         svgs.append(page._sections[-1].blocks[-1].svg)
     assert b"clip-path" in svgs[0] and svgs[0] == svgs[1]
+
+
+def test_prose_columns_are_left_aligned_and_wrapped():
+    """A column with a sentence in it is marked prose (left-aligned, wrapped), so that the short values
+    beside it stay in view; numeric columns are not."""
+    from boundid.report.html import PROSE_CHARS, Page
+
+    page = Page("t")
+    page.section("s")
+    df = pd.DataFrame({"value": ["short", "x" * (PROSE_CHARS + 1)], "n": [1.0, 2.0]},
+                      index=pd.Index(["a", "b"], name="setting"))
+    page.table(df, "caption", name="setup")
+    html = page.to_html()
+    table = html[html.index('id="tab-setup"'):]
+    assert table.count('<td class="prose">') == 2 and table.count('<th class="prose">') == 1
+    assert "<td>a</td>" in table and "<td>1</td>" in table

@@ -76,6 +76,7 @@ table.data th, table.data td { padding: .28rem .65rem; border-bottom: 1px solid 
 table.data thead th { background: var(--bg-alt); border-bottom: 2px solid var(--line); }
 table.data.keyed td:first-child, table.data.keyed th:first-child { text-align: left; }
 table.data.keyed td:first-child { font-weight: 600; }
+table.data td.prose, table.data th.prose { text-align: left; white-space: normal; min-width: 24rem; }
 table.data tbody tr:hover { background: #fafbfc; }
 footer { margin-top: 3rem; font-size: .8rem; color: var(--muted); }
 ul.studies li { margin: .45rem 0; }
@@ -199,6 +200,27 @@ class _Section:
     folded: str | None = None  # the line shown while the section's content is folded away
 
 
+#: a table column holding a cell longer than this is prose: left-aligned and wrapped (a sentence in a
+#: right-aligned, unwrapped column would push the short values of the others out of the reader's view)
+PROSE_CHARS = 60
+
+
+def _prose_cells(body: str, columns: list[int]) -> str:
+    """``body`` (a pandas to_html table) with the header and body cells of ``columns`` (0-based)
+    marked class="prose"."""
+    if not columns:
+        return body
+    head, sep, rest = body.partition("<tbody>")
+    ths = head.split("<th>")
+    head = ths[0] + "".join(('<th class="prose">' if k in columns else "<th>") + c for k, c in enumerate(ths[1:]))
+    rows = rest.split("<tr>")
+    for i in range(1, len(rows)):
+        cells = rows[i].split("<td>")
+        rows[i] = cells[0] + "".join(('<td class="prose">' if k in columns else "<td>") + c
+                                     for k, c in enumerate(cells[1:]))
+    return head + sep + "<tr>".join(rows)
+
+
 class Page:
     """A report page under construction; every method but :meth:`write` returns the page (chainable).
 
@@ -304,8 +326,9 @@ class Page:
         text = format_frame(t.df, t.float_format)
         if shows_index(t.df):  # the index as a first, left-aligned column with its name in the header row
             text = text.reset_index()
-        body = text.to_html(index=False, border=0, classes="data" + (" keyed" if shows_index(t.df) else ""),
-                            escape=True)
+        prose = [k for k, c in enumerate(text.columns) if text[c].astype(str).str.len().max() > PROSE_CHARS]
+        body = _prose_cells(text.to_html(index=False, border=0, escape=True,
+                                         classes="data" + (" keyed" if shows_index(t.df) else "")), prose)
         return (f'<figure class="tab" id="tab-{t.name}"><figcaption><b>Table {t.number}.</b> '
                 f'{html.escape(t.caption)}<span class="files"><a href="tables/{t.name}.csv">CSV</a> · '
                 f'<a href="tables/{t.name}.tex">LaTeX</a></span></figcaption>'
