@@ -836,13 +836,20 @@ def _published_section(page: Page, r: StudyResult) -> None:
                  "that holds (gamma* with the table's values fixed). A table allowed only above the chosen bound "
                  "is contradicted by the data at that bound: its values cannot all be right unless the errors are "
                  "larger than e_max.")
-    summary = pub.tables.set_index("published")
+    t = pub.tables.set_index("published")
+    summary = pd.DataFrame(index=t.index)
     if ex is not None and ex.bounds is not None:
-        summary["together"] = [in_bound_units(ex, s) for s in summary["together from"]]
-    page.table(summary, "Each published table against the data: its values, those that are combinations of the base "
-               "parameters, those inside their exact intervals and (for a single parameter) inside the physically "
-               "consistent ones, and the factor of the chosen bound from which the data allow all of them together.",
-               float_format="{:.4g}", name="published-tables")
+        summary["all values together allowed from"] = [in_bound_units(ex, s) for s in t["together from"]]
+        summary["at the chosen bound"] = ["consistent" if s <= 1 else "contradicted" for s in t["together from"]]
+    summary["comparable / values"] = [f"{c} / {n}" for c, n in zip(t["comparable"], t["values"], strict=True)]
+    summary["inside exact"] = t["inside exact"]
+    summary["inside physical / checked"] = [f"{i} / {c}" for i, c in zip(t["inside physical"],
+                                                                         t["physical checked"], strict=True)]
+    summary["source"] = t["source"]
+    page.table(summary, "Each published table against the data: the factor of the chosen bound from which the data "
+               "allow all its values together, its values that are combinations of the base parameters, those "
+               "inside their exact intervals alone and (for a single parameter) inside the physically consistent "
+               "ones.", float_format="{:.4g}", name="published-tables")
     cols = [c for c in ("published", "name", "quantity", "value", "exact lo", "exact hi", "inside exact",
                         "inside physical", "from bound") if c in pub.values]
     cols += [c for c in pub.values if c.endswith("- value [%]")]
@@ -982,7 +989,8 @@ def _export_section(page: Page, r: StudyResult, folder: Path) -> None:
     if tuple(r.model.param_definitions) != tuple(r.model.param_names):
         text += (" Base parameters fix combinations of the standard ones only: the standard parameters written are "
                  "the ones nearest the URDF's values whose links are rigid bodies, the armature (a joint property, "
-                 "never a link inertia) taking what a combination leaves; the tables list both sets.")
+                 "never a link inertia) taking what a combination leaves, or for a projection that the solver cannot "
+                 "place there, the projection's own (the files' headers say which); the tables list both sets.")
     page.section("Identified parameters, exported", text)
 
 
