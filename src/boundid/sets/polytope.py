@@ -409,15 +409,18 @@ class Polytope:
         return np.sort(rows[piv[:r]])
 
     def _data_rank(self, F: _Frame) -> int:
-        """Numerical rank of the frame's unit rows (one pass for their Gram matrix)."""
+        """Numerical rank of the frame's unit rows (one pass for their Gram matrix G = A^T A). G's
+        eigenvalues carry rounding of about eps |G| = eps sigma_1^2, so a singular value below
+        sqrt(eps) sigma_1 is out of its reach: the rank counts eigenvalues above max(N, p) eps
+        lambda_1 (a threshold on sigma^2 where the QR of :meth:`_seed` puts its own on sigma; on
+        sigma itself, rounding counted absent directions: 45 for a rank-33 block of 3,000 rows)."""
         if self._rank is None:
             G = np.zeros((self.dim, self.dim))
             for sl in _chunks(self.n_strips):
                 A = self.W[sl] * F.scale / F.rn(sl)[1][:, None]
                 G += A.T @ A
-            ev = np.clip(np.linalg.eigvalsh(G)[::-1], 0.0, None)
-            sv = np.sqrt(ev)
-            self._rank = int(np.sum(sv > max(self.n_strips, self.dim) * _EPS * sv[0])) if sv[0] > 0 else 0
+            ev = np.linalg.eigvalsh(G)[::-1]
+            self._rank = int(np.sum(ev > max(self.n_strips, self.dim) * _EPS * ev[0])) if ev[0] > 0 else 0
         return self._rank
 
     def _theta_engine(self) -> WorkingSetLP:
