@@ -250,3 +250,31 @@ def test_bound_sweep_against_the_polytope_and_the_residuals():
     assert rows[1]["rows zero violates"] == int(np.sum(np.abs(reg.y) > e))
     one = bound_sweep(reg, box, gs, "one", {"Chebyshev": gs.chebyshev}, factors=(1.01, 2.0))
     assert one[0]["rows Chebyshev violates"] == one[1]["rows Chebyshev violates"] == 0
+
+
+def test_one_bound_per_joint_bounds_each_joints_rows(tmp_path):
+    """[exact] e_max = [a, b]: each joint's rows take their joint's bound, in the polytope and in the OBE
+    that inherits it (its set contains the exact polytope, certified); the page states the bounds by joint;
+    the truth's ratio is computed row by row against them."""
+    text = tiny_study("perjoint", 1) + RULE_EXACT.format(rule="e_max = [6.0, 3.0]")
+    _, r = run_study_text(tmp_path, "perjoint", text)
+    reg, ex = r.regressions["filtered_dynamic"], r.exact
+    np.testing.assert_array_equal(ex.e_max, np.where(reg.joint == 0, 6.0, 3.0))
+    np.testing.assert_array_equal(ex.polytope.e_max, ex.e_max)
+    assert ex.bound_text() == "6, 3 N m by joint"
+    ratio = np.abs(reg.y - reg.W @ r.model.theta_true) / np.where(reg.joint == 0, 6.0, 3.0)
+    assert ex.truth_error_ratio == pytest.approx(ratio.max())
+    assert ex.certificates["OBE"].contains_polytope
+
+
+@pytest.mark.parametrize("e_max, match", [
+    ("[6.0]", "lists 1 bounds but the direct_drive model has 2 joints"),
+    ("[6.0, -1.0]", "must list one finite number > 0 per joint"),
+    ("[6.0, nan]", "must list one finite number > 0 per joint"),
+    ('{ a = 1 }', "a list of one per joint; a rule"),
+])
+def test_a_bad_per_joint_bound_is_refused(tmp_path, e_max, match):
+    path = tmp_path / "bad.toml"
+    path.write_text(tiny_study("bad", 1) + RULE_EXACT.format(rule=f"e_max = {e_max}"))
+    with pytest.raises(StudyError, match=match):
+        load_study(path)

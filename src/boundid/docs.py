@@ -147,11 +147,12 @@ DESCRIPTIONS = {
     "estimators[].Q": "Kalman process noise variance (0: constant parameters).",
     "exact": "The exact optima, computed on one regression's rows.",
     "exact.regression": "The regression whose feasible polytope is solved; absent: no exact optima.",
-    "exact.e_max": "The error bound of the polytope, one number for every row (equal to the e_max of an OBE on "
+    "exact.e_max": "The error bound of the polytope, one number for every row or a list of one per joint (each "
+                   "joint's rows; equal to the e_max of an OBE on "
                    "the same rows); with `regression`, this or `e_max_rule` is required.",
     "exact.e_max_rule": "The bound as a rule: a factor times gamma*, the smallest bound the data allow (instead of "
                         "e_max); e_max_rule = {} is the default, 2 x gamma*, one bound on every row (the truth "
-                        "needed 1.25-1.71 gamma* on MuJoCo UR5 recordings).",
+                        "needed 1.25-1.71 gamma* on MuJoCo UR5 recordings of three joints, 1.39-1.95 of six).",
     "exact.e_max_rule.factor": "e_max = factor x the smallest consistent bounds of the scaling (>= 1; 1 leaves one "
                                "point).",
     "exact.e_max_rule.scaling": "\"one\": one bound on every row; \"per_joint\": in proportion to each joint's own "

@@ -110,7 +110,9 @@ def describe(cfg) -> str:
              if pr.center == "model" else f"a box of +- {pr.absolute_range:g} about 0")
     text = f"{data}{pre + '.' if pre else ''} Estimators: {runs}. Prior: {prior}."
     if cfg.exact.regression is not None:
-        bound = f"{cfg.exact.e_max:g}" if cfg.exact.e_max_rule is None else cfg.exact.e_max_rule.describe()
+        e = cfg.exact.e_max
+        bound = (cfg.exact.e_max_rule.describe() if cfg.exact.e_max_rule is not None else f"{e:g}"
+                 if not isinstance(e, tuple) else f"{', '.join(f'{v:g}' for v in e)} by joint")
         text += f" Exact optima: the {cfg.exact.regression} rows with |e| <= {bound}, intersected with the prior box."
     return text
 

@@ -151,14 +151,15 @@ class EstimatorConfig:
 @dataclass(frozen=True)
 class ExactConfig:
     """[exact]: the regression whose feasible polytope is bounded exactly, what to compute, and its
-    bound: ``e_max`` a number (one bound on every row, in the regression's unit) or ``e_max_rule``
+    bound: ``e_max`` a number (one bound on every row, in the regression's unit) or one per joint
+    (each joint's rows), or ``e_max_rule``
     (a factor times gamma*, the smallest bound the data allow, :mod:`boundid.studies.bounds`)."""
 
     regression: str | None = None
     lp_bounds: bool = True
     sdp: tuple[str, ...] = ()
     projections: tuple[tuple[str, str], ...] = ()
-    e_max: float | None = None
+    e_max: float | tuple[float, ...] | None = None  # one number, or one per joint
     volume_bracket: bool = True  # bracket the minimum-volume outer ellipsoid (needs sdp outer and inner)
     e_max_rule: BoundRule | None = None
 
@@ -279,9 +280,14 @@ def _exact_bound(ex: Section) -> tuple[float | None, BoundRule | None]:
     """[exact] e_max, a number, or e_max_rule, a table { factor = ..., scaling = ... } (both keys
     optional: :data:`boundid.studies.bounds.DEFAULT_RULE`); load_study refuses both at once."""
     if isinstance(ex.data.get("e_max"), dict):
-        raise ex.error("e_max", "is one number for every row; a rule (a factor times gamma*) is written "
-                                "e_max_rule = { factor = 2.0, scaling = \"one\" }.")
-    e_max = ex.float("e_max", None, lo=0.0, strict_lo=True)
+        raise ex.error("e_max", "is one number for every row, or a list of one per joint; a rule (a factor times "
+                                "gamma*) is written e_max_rule = { factor = 2.0, scaling = \"one\" }.")
+    if isinstance(ex.data.get("e_max"), list):
+        e_max = tuple(float(v) for v in ex.list("e_max", of=(int, float)))
+        if not e_max or not all(math.isfinite(v) and v > 0 for v in e_max):
+            raise ex.error("e_max", f"must list one finite number > 0 per joint, got {list(e_max)}.")
+    else:
+        e_max = ex.float("e_max", None, lo=0.0, strict_lo=True)
     given = ex.has("e_max_rule")
     rule = ex.section("e_max_rule")
     factor = rule.float("factor", DEFAULT_RULE.factor, lo=1.0)
@@ -549,6 +555,9 @@ def load_study(path: str | Path) -> StudyConfig:
     if exact.e_max is not None and exact.e_max_rule is not None:  # last: boundid.docs reads every key first
         raise ex.error("e_max_rule", "and e_max are both given: keep one, the number or the rule.")
     cfg = replace(cfg, estimators=tuple(_bind_estimators(ex, exact, list(estimators), estimator_sections)))
+    if isinstance(exact.e_max, tuple) and len(exact.e_max) != model.n_joints:
+        raise ex.error("e_max", f"lists {len(exact.e_max)} bounds but the {robot} model has {model.n_joints} joints: "
+                                "give one per joint, in the model's joint order, or one number for every row.")
     _check_size(cfg, model)
     _check_prior(cfg, model)
     check_published(cfg.published, model, path)

@@ -101,23 +101,27 @@ def exact_bound(cfg: StudyConfig, reg: Regression, model: RobotModel) -> tuple[f
     """The exact regression's bound: [exact] e_max, or its rule's per-row bounds (N,), and gamma*
     three ways (:func:`boundid.studies.bounds.gamma_star`; computed for a rule and for measured
     data, whose verdict states it; None for simulated data with a number)."""
+    e_max = cfg.exact.e_max
+    if isinstance(e_max, tuple):  # one bound per joint: each row takes its joint's
+        e_max = np.asarray(e_max, dtype=float)[reg.joint]
     if cfg.exact.e_max_rule is None and cfg.experiment.source == "simulate":
-        return cfg.exact.e_max, None
+        return e_max, None
     center, half = prior_box(model, cfg.prior)
     evidence = gamma_star(reg, (center - half, center + half))
     if cfg.exact.e_max_rule is None:
-        return cfg.exact.e_max, evidence
+        return e_max, evidence
     return cfg.exact.e_max_rule.rows(evidence, reg.joint), evidence
 
 
 def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, set_estimates: dict[str, Estimate],
                  progress: Progress, e_max: float | np.ndarray | None = None,
                  evidence: GammaStar | None = None) -> ExactResult:
-    """The exact optima of ``reg``'s polytope with bound ``e_max`` (default [exact] e_max; per-row
-    (N,) for a rule); a step that fails (LP, SDP, certificate) is recorded in ``errors`` by name and
-    the others go on. When the data contradict the bound, the minimum number of rows to drop
-    (:func:`boundid.sets.min_outliers`) is computed instead of the bounds."""
-    e_max = cfg.exact.e_max if e_max is None else e_max
+    """The exact optima of ``reg``'s polytope with bound ``e_max`` (default :func:`exact_bound`'s:
+    [exact] e_max, per row for one per joint or a rule); a step that fails (LP, SDP, certificate) is
+    recorded in ``errors`` by name and the others go on. When the data contradict the bound, the
+    minimum number of rows to drop (:func:`boundid.sets.min_outliers`) is computed instead of the
+    bounds."""
+    e_max = exact_bound(cfg, reg, model)[0] if e_max is None else e_max
     center, half = prior_box(model, cfg.prior)
     box = (center - half, center + half)
     P = Polytope.from_strips(reg.W, reg.y, e_max, box=box)
