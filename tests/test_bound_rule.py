@@ -8,6 +8,8 @@ feasible polytope is non-empty, at 1 - 1e-3 it is empty; the MuJoCo recordings' 
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from scipy.optimize import linprog
@@ -278,3 +280,40 @@ def test_a_bad_per_joint_bound_is_refused(tmp_path, e_max, match):
     path.write_text(tiny_study("bad", 1) + RULE_EXACT.format(rule=f"e_max = {e_max}"))
     with pytest.raises(StudyError, match=match):
         load_study(path)
+
+
+def test_relaxed_q_bounds_the_parameters_with_q_outliers_on_the_page(tmp_path):
+    """[exact] relaxed_q = 2 on 40 rows of 9 parameters with two planted outliers: the exact polytope is
+    empty, the minimum number of outliers is 2 and the q-relaxed bounds are those of the polytope without
+    the planted rows, which here is the only way to satisfy all others (reference: Polytope.bounds of the
+    rows kept); the page's table shows them."""
+    from boundid.report.html import Page
+    from boundid.report.study_page import _relaxed_table
+    from boundid.studies.progress import QUIET
+    from boundid.studies.runner import exact_optima
+
+    path = tmp_path / "rel.toml"
+    path.write_text(tiny_study("rel", 1) + RULE_EXACT.format(rule="e_max = 0.5\nrelaxed_q = 2"))
+    cfg = load_study(path)
+    rng = np.random.default_rng(3)
+    from boundid.studies.registry import make_robot
+
+    model = make_robot(cfg.robot, cfg.robot_options)
+    W = rng.normal(size=(40, model.p))
+    y = W @ model.theta_true + rng.uniform(-0.5, 0.5, 40)
+    y[[7, 23]] += [30.0, -30.0]
+    reg = Regression(W, y, np.zeros(40, dtype=int), np.arange(40), np.arange(40) * 0.01, "filtered_dynamic",
+                     model.param_names)
+    ex = exact_optima(cfg, reg, model, {}, QUIET, 0.5)
+    assert not ex.consistent and ex.outliers.n_outliers == 2 and set(ex.outliers.dropped) == {7, 23}
+    kept = np.setdiff1d(np.arange(40), [7, 23])
+    ref = Polytope.from_strips(W[kept], y[kept], 0.5, box=ex.polytope.box).bounds()
+    rb = ex.relaxed
+    assert rb.q == 2 and rb.lo_proven.all() and rb.hi_proven.all()
+    np.testing.assert_allclose(rb.lo, ref.lo, atol=1e-6 * np.ptp(ex.polytope.box))
+    np.testing.assert_allclose(rb.hi, ref.hi, atol=1e-6 * np.ptp(ex.polytope.box))
+    page = Page("t")
+    page.section("s")
+    _relaxed_table(page, SimpleNamespace(exact=ex, model=model))
+    text = page.to_markdown()
+    assert "at most q = 2 rows" in text and f"exact where proven ({model.p} of {model.p} parameters)" in text

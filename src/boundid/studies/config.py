@@ -162,6 +162,7 @@ class ExactConfig:
     e_max: float | tuple[float, ...] | None = None  # one number, or one per joint
     volume_bracket: bool = True  # bracket the minimum-volume outer ellipsoid (needs sdp outer and inner)
     e_max_rule: BoundRule | None = None
+    relaxed_q: int | None = None  # the q-relaxed bounds (at most q outliers) at the bound, when given
 
     @property
     def has_bound(self) -> bool:
@@ -514,6 +515,7 @@ def load_study(path: str | Path) -> StudyConfig:
         e_max=e_max,
         volume_bracket=ex.bool("volume_bracket", True),
         e_max_rule=rule,
+        relaxed_q=ex.int("relaxed_q", None, lo=0),
     )
     for pair in exact.projections:
         if len(pair) != 2 or not all(isinstance(x, str) for x in pair):

@@ -14,7 +14,7 @@ from boundid.estimators import Estimate
 from boundid.estimators.certify import validate
 from boundid.experiments.regression import Regression
 from boundid.models import RobotModel
-from boundid.sets import OutlierCount, Polytope, SDPResult, min_outliers
+from boundid.sets import OutlierCount, Polytope, RelaxedBounds, SDPResult, min_outliers, relaxed_bounds
 from boundid.sets.sdp import VolumeBracket, min_volume_bracket, polytope_ellipsoids
 from boundid.studies.bounds import BoundRule, GammaStar, gamma_star
 from boundid.studies.config import StudyConfig, prior_box
@@ -29,6 +29,8 @@ from boundid.studies.validation import validate_study
 
 #: seconds HiGHS may spend on the minimum-outlier MILP of a run whose data contradict the bound
 OUTLIER_TIME_LIMIT_S = 10.0
+#: seconds HiGHS may spend on each of the 2p MILPs of the q-relaxed bounds ([exact] relaxed_q)
+RELAXED_TIME_LIMIT_S = 5.0
 
 
 @dataclass
@@ -44,7 +46,8 @@ class ExactResult:
     consistent exact bounds beside the plain ones (:mod:`boundid.studies.physical_stage`; None when
     the robot states no physical constraints or the LP bounds failed); bracket: ln vol of the
     minimum-volume outer ellipsoid bracketed (:func:`boundid.sets.sdp.min_volume_bracket`; None
-    without the outer and inner SDPs).
+    without the outer and inner SDPs); relaxed: the bounds of the parameters that violate at most
+    [exact] relaxed_q rows (:func:`boundid.sets.relaxed_bounds`; None when not asked).
     """
 
     regression: str
@@ -63,6 +66,7 @@ class ExactResult:
     evidence: GammaStar | None = None
     rule: BoundRule | None = None
     outliers: OutlierCount | None = None
+    relaxed: RelaxedBounds | None = None
     unit: str = ""
     row_joint: np.ndarray | None = None
 
@@ -113,6 +117,22 @@ def exact_bound(cfg: StudyConfig, reg: Regression, model: RobotModel) -> tuple[f
     return cfg.exact.e_max_rule.rows(evidence, reg.joint), evidence
 
 
+def _relaxed(cfg: StudyConfig, reg: Regression, res: ExactResult, box, progress: Progress) -> None:
+    """[exact] relaxed_q: the q-relaxed bounds at the run's bound into ``res.relaxed`` (or its failure
+    into ``res.errors``)."""
+    q = cfg.exact.relaxed_q
+    if q is None:
+        return
+    with progress.stage(f"{cfg.name}: bounds with at most {q} outliers ({2 * reg.W.shape[1]} MILPs)"):
+        t0 = time.perf_counter()
+        try:
+            res.relaxed = relaxed_bounds(reg.W, reg.y, res.e_max, box, min(q, reg.n_rows),
+                                         time_limit=RELAXED_TIME_LIMIT_S)
+        except RUN_FAILURES as exc:
+            res.errors["relaxed bounds"] = _reason(exc)
+        res.time_s["relaxed_bounds"] = time.perf_counter() - t0
+
+
 def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, set_estimates: dict[str, Estimate],
                  progress: Progress, e_max: float | np.ndarray | None = None,
                  evidence: GammaStar | None = None) -> ExactResult:
@@ -147,6 +167,7 @@ def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, set_estim
                 res.outliers = min_outliers(reg.W, reg.y, e_max, box, time_limit=OUTLIER_TIME_LIMIT_S)
             except RUN_FAILURES as exc:
                 res.errors["outliers"] = _reason(exc)
+        _relaxed(cfg, reg, res, box, progress)
         return res
     if cfg.exact.lp_bounds or cfg.exact.sdp:
         with progress.stage(f"{cfg.name}: exact LP bounds ({reg.n_rows} strips)"):
@@ -156,6 +177,7 @@ def exact_optima(cfg: StudyConfig, reg: Regression, model: RobotModel, set_estim
             except RUN_FAILURES as exc:
                 res.errors["bounds"] = _reason(exc)
             res.time_s["lp_bounds"] = time.perf_counter() - t0
+    _relaxed(cfg, reg, res, box, progress)
     if cfg.exact.sdp:
         with progress.stage(f"{cfg.name}: SDP {', '.join(cfg.exact.sdp)} ellipsoids"):
             for name, (out, seconds) in polytope_ellipsoids(P, cfg.exact.sdp).items():
