@@ -96,7 +96,8 @@ def test_the_page_states_what_was_held_out(held):
     text = page.to_markdown()
     assert "## Held-out validation: predicted torques" in text
     assert "the last 50 % of the recording" in page.setup["held-out torques"]
-    assert "LP exact +- e_max holds" in page.setup["held-out torques"]
+    assert "LP exact's band (mean half-width" in page.setup["held-out torques"]
+    assert "N m) widened by e_max holds 100 %" in page.setup["held-out torques"]
 
 
 def test_a_holdout_beyond_half_is_refused(tmp_path):
@@ -121,3 +122,16 @@ def test_a_holdout_too_short_for_a_row_names_the_fraction_that_works(tmp_path):
     cfg = load_study(path)
     with pytest.raises(StudyError, match="holdout_fraction = 0.2 keeps 0.397 s out, too short .* raise it to at least"):
         acquire(cfg, make_robot(cfg.robot, cfg.robot_options), np.random.default_rng(0))
+
+
+def test_a_holdout_without_inverse_dynamic_rows_is_refused(tmp_path):
+    t = np.arange(100) * 0.0025
+    fake = SimpleNamespace(data=SimpleNamespace(recording=Recording(t, np.c_[t, t], np.c_[t, t])))
+    head = tiny_study("held", 2)  # filtered_dynamic only
+    tail = TAIL.replace("inverse_dynamic", "filtered_dynamic")
+    path = tmp_path / "x.toml"
+    path.write_text(measured_twin(head + tail, fake, tmp_path).replace(
+        "[experiment.measured]\nfile", "[experiment.measured]\nholdout_fraction = 0.3\nfile"))
+    with pytest.raises(StudyError, match='holdout_fraction: the held-out torques are predicted by the inverse_dynamic '
+                                         'rows.* add "inverse_dynamic" to regressions'):
+        load_study(path)

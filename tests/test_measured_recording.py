@@ -233,6 +233,9 @@ BAD = [
     ("degrees declared rad", lambda f: _rewrite(f / "rec.csv", q2=90 * np.sin(np.arange(200) * 0.05)), JOINT_SIDE,
      r"joint 2 spans [\d.]+ rad .* are the angles in degrees, or motor-side\? set experiment\.measured\.angle_unit = "
      r"\"deg\", or give \[experiment\.measured\.transmission\]\.$"),
+    ("small motion in degrees declared rad", lambda f: _rewrite(f / "rec.csv", q2=20 * np.sin(np.arange(200) * 0.05)),
+     JOINT_SIDE, r"joint 2 moves at [\d.]+ rad/s \([\d.]+ rpm\), faster than any robot joint; are the angles in "
+     r"degrees, or motor-side\? set experiment\.measured\.angle_unit = \"deg\""),
     ("motor degrees declared rad", lambda f: _rewrite(f / "pos.csv", m1=np.degrees(pd.read_csv(f / "pos.csv").m1)),
      MOTOR_SIDE, r"joint 1 spans .* are the motor angles in degrees\? set experiment\.measured\.angle_unit = \"deg\""),
     ("constant positions", lambda f: _rewrite(f / "rec.csv", q1=0.25), JOINT_SIDE,

@@ -43,8 +43,11 @@ def test_functional_is_the_base_combination_or_none():
     np.testing.assert_allclose(functional("a + 0.50001*c", TOY), [1, 0, 0], atol=1e-4)  # published rounding
     assert functional("a", TOY) is None  # a alone is not identifiable
     assert functional("c", TOY) is None
-    with pytest.raises(InputError, match="'e' in 'a \\+ e' is not a parameter of the toy model"):
+    with pytest.raises(InputError, match="'e' in 'a \\+ e' is not a parameter of the toy model; its parameters: "
+                                         "aR, b, dR, a, c, d."):
         functional("a + e", TOY)
+    with pytest.raises(InputError, match="^'b_' is not a parameter of the toy model \\(did you mean 'b'\\?\\)"):
+        functional("b_", TOY)
 
 
 def _problem(seed=0, rows=40, p=3):

@@ -169,8 +169,9 @@ DESCRIPTIONS = {
                             "bracketed on the page.",
     "exact.projections": "Pairs of parameter names whose 2-D projections of the sets are drawn.",
     "experiment.measured.holdout_fraction": "Share of the recording, at its end, kept out of identification "
-                                            "(held-out validation): every estimate and the exact polytope "
-                                            "predict its torques, with each band's coverage and width. 0: none.",
+                                            "(held-out validation): the estimates on the inverse_dynamic rows "
+                                            "(which regressions must list) and their exact polytope predict its "
+                                            "torques, with each band's coverage and width. 0: none.",
     "published[]": "A published table of the robot's parameter values ([[published]], one per table), held "
                    "against the data on the page: each value inside its exact interval or not, and the smallest "
                    "bound at which the data allow it.",

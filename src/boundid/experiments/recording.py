@@ -20,6 +20,9 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3}
 MAX_PERIOD_S = 0.1
 MIN_PERIOD_S = 1e-5
 MAX_ANGLE_SPAN_RAD = 100.0
+#: joint-side speed [rad/s] (over 10 ms) no robot joint reaches (~380 rpm): angles in degrees read as
+#: radians multiply speeds by 57, motor-side angles by the gear ratio
+MAX_JOINT_SPEED_RAD_S = 40.0
 
 
 @dataclass(frozen=True)
@@ -132,8 +135,8 @@ def read_recording(path: str | Path, time: str | None, q: list[str] | tuple[str,
     The samples must be uniformly spaced (relative jitter below ``rtol_sampling``): the regression
     models filter and differentiate with a fixed sample period. Unreadable files and cells that are
     not numbers raise InputError naming the file, column and row; so do implausible units (a period
-    over 0.1 s, joint angles spanning over 100 rad, a column that never changes), naming the likely
-    mistake and the study-file key that fixes it.
+    over 0.1 s, joint angles spanning over 100 rad or moving faster than 40 rad/s, a column that
+    never changes), naming the likely mistake and the study-file key that fixes it.
     """
     path = Path(path)
     if (time is None) == (sample_period_s is None):
@@ -169,15 +172,21 @@ def read_recording(path: str | Path, time: str | None, q: list[str] | tuple[str,
                          f"{len(q)} position columns; give one ratio per joint.")
     else:
         q_joint, tau_joint = transmission.to_joint(q_rad, raw_tau)
+    unit, side = 'set experiment.measured.angle_unit = "deg"', "give [experiment.measured.transmission]"
+    fix = {(False, "rad"): f"are the angles in degrees, or motor-side? {unit}, or {side}",
+           (False, "deg"): f"are the angles motor-side? {side}",
+           (True, "rad"): f"are the motor angles in degrees? {unit}, or check the gear_ratios",
+           (True, "deg"): "check the transmission's gear_ratios and coupling"}[transmission is not None, angle_unit]
     span = np.ptp(q_joint, axis=0)
     if span.size and span[j := int(np.argmax(span))] > MAX_ANGLE_SPAN_RAD:
-        unit, side = 'set experiment.measured.angle_unit = "deg"', "give [experiment.measured.transmission]"
-        fix = {(False, "rad"): f"are the angles in degrees, or motor-side? {unit}, or {side}",
-               (False, "deg"): f"are the angles motor-side? {side}",
-               (True, "rad"): f"are the motor angles in degrees? {unit}, or check the gear_ratios",
-               (True, "deg"): "check the transmission's gear_ratios and coupling"}[transmission is not None, angle_unit]
         raise InputError(f"recording {path}: joint {j + 1} spans {span[j]:.4g} rad ({span[j] / (2 * np.pi):.3g} "
                          f"turns) over the recording; {fix}.")
+    m = max(1, int(round(0.01 / float(np.median(np.diff(t)))))) if t.size > 1 else 1
+    if t.size > m:
+        speed = np.abs(q_joint[m:] - q_joint[:-m]).max(axis=0) / (t[m:] - t[:-m]).min()
+        if speed[j := int(np.argmax(speed))] > MAX_JOINT_SPEED_RAD_S:
+            raise InputError(f"recording {path}: joint {j + 1} moves at {speed[j]:.4g} rad/s "
+                             f"({speed[j] * 30 / np.pi:.0f} rpm), faster than any robot joint; {fix}.")
     return Recording(t=t, q=q_joint, tau=tau_joint)
 
 

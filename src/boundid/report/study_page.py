@@ -329,8 +329,9 @@ def bound_evidence(ex) -> str:
                 f"row; {gs}")
         if ex.outliers is not None:
             o = ex.outliers
-            how = "proven" if o.proven else f"not proven: the MILP stopped at its time limit with {o.n_outliers}"
-            text += f"; at least {o.lower_bound} row{'s' * (o.lower_bound != 1)} must go ({how})"
+            text += (f"; {o.n_outliers} row{'s' * (o.n_outliers != 1)} must go (proven minimum)" if o.proven else
+                     f"; between {o.lower_bound} and {o.n_outliers} rows must go (the MILP's bounds when its time "
+                     "limit ran out)")
         return text
     margin = "" if ex.rule is not None else f", {1.0 / ex.gamma_star:.3g} x the smallest consistent bound"
     return f"e_max = {ex.bound_text()}{margin}; {gs}"
@@ -430,9 +431,9 @@ def _exact_section(page: Page, r: StudyResult, guard: _Guard) -> None:
                 **{f"{_tag(lab, e)} ∩ prior": clipped_intervals(e, box) for lab, e in _guaranteed_sets(r).items()}}
         df = parameter_table(names, cols)
         df["data shrank the prior?"] = [_yes(x) for x in shrank(ex.bounds.lo, ex.bounds.hi, *box)]
-        page.table(df, "Guaranteed intervals intersected with the prior box (the truth lies in both), beside the "
-                   "exact LP interval; \"data shrank the prior?\": the LP interval is narrower than the prior box.",
-                   name="intervals")
+        page.table(df, "Guaranteed intervals intersected with the prior box (under the bound the truth lies in "
+                   "both), beside the exact LP interval; \"data shrank the prior?\": the LP interval is narrower than "
+                   "the prior box.", name="intervals")
     comparison = None
     with guard("table", "set comparison"):
         comparison = set_comparison(r)
@@ -764,11 +765,13 @@ def _page(r: StudyResult) -> Page:
         _sweep_section(page, r)
     box["failures"] = "none" if not failures else f"{len(failures)}, listed in the last section"
     if failures:
+        standard_obe = any(f.stage == "estimator" and "OBE" in f.subject and "definite" in f.reason
+                           for f in failures)
         page.section("What failed",
-                     "Reported as it failed; no other answer is substituted, and the rest of the page stands. "
-                     "The standard-form OBE keeps M^-1 by rank-one downdates, which lose positive definiteness "
-                     "to rounding when a wide prior meets very informative rows: the reason the H4 paper uses the "
-                     "factorized (square-root) form.")
+                     "Reported as it failed; no other answer is substituted, and the rest of the page stands."
+                     + (" The standard-form OBE keeps M^-1 by rank-one downdates, which lose positive definiteness "
+                        "to rounding when a wide prior meets very informative rows: the reason the H4 paper uses the "
+                        "factorized (square-root) form." if standard_obe else ""))
         page.table(pd.DataFrame(failures, columns=["stage", "subject", "failure"]).set_index("stage"),
                    "Failures of the run and of the page.", name="failures")
     page.setup.update({"failures": box["failures"]})
@@ -822,8 +825,9 @@ def _held_out_finding(r: StudyResult) -> str:
     parts = []
     for lab, b in v["torque_bands"].items():
         inside = 100 * (1 - (b.outside_fraction(m) if b.error_bound is None else b.outside_measured_fraction(m)))
-        widened = "" if b.error_bound is None else " +- e_max"
-        parts.append(f"{lab}{widened} holds {inside:.3g} % (half-width {np.nanmean(b.half_width):.3g} N m)")
+        band = (f"{lab}'s 95 % band (mean half-width {np.nanmean(b.half_width):.3g} N m)" if b.error_bound is None
+                else f"{lab}'s band (mean half-width {np.nanmean(b.half_width):.3g} N m) widened by e_max")
+        parts.append(f"{band} holds {inside:.3g} %")
     return f"{r.data.info['held out']}: " + "; ".join(parts) + " of the measured torques"
 
 

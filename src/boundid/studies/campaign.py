@@ -55,7 +55,7 @@ import pyarrow.parquet as pq
 from threadpoolctl import ThreadpoolController
 
 from boundid.errors import RUN_FAILURES, InputError, StudyError
-from boundid.studies.config import StudyConfig
+from boundid.studies.config import StudyConfig, prior_box
 from boundid.studies.data import acquire
 from boundid.studies.progress import QUIET, Progress
 from boundid.studies.registry import make_robot
@@ -162,7 +162,8 @@ def replicate_rows(cfg: StudyConfig, scenario: Scenario, replicate: int) -> pd.D
         table = pd.concat([table, pd.DataFrame({
             "study": ccfg.name, "estimator": label, "method": method, "regression": regname,
             "parameter": list(model.param_names), "unit": list(model.param_units), "center": np.nan, "lo": np.nan,
-            "hi": np.nan, "truth": model.theta_true, "prior": model.theta_prior, "kind": "failed", "level": np.nan,
+            "hi": np.nan, "truth": model.theta_true, "prior": prior_box(model, ccfg.prior)[0], "kind": "failed",
+            "level": np.nan,
             "truth_in_set": pd.array([pd.NA] * model.p, dtype="boolean"),
             "truth_in_all_intervals": pd.array([pd.NA] * model.p, dtype="boolean")})],
             ignore_index=True)

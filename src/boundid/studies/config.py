@@ -229,7 +229,8 @@ def option_help(method: Method) -> str:
     """What an [[estimators]] table of ``method`` may hold, from its options dataclass."""
     hints = typing.get_type_hints(method.options)
     parts = [_describe(f, hints[f.name]) for f in dataclasses.fields(method.options)]
-    keys = "method, label, regressions" + (", e_max (number > 0, required)" if method.needs_bound else "")
+    keys = "method, label, regressions" + (", e_max (number > 0; on the [exact] regression alone, [exact]'s "
+                                           "bound if left out)" if method.needs_bound else "")
     return (f"the {method.name} estimator takes {keys}"
             + (f" and the options {', '.join(parts)}" if parts else " and no options"))
 
@@ -346,6 +347,7 @@ def _experiment(sec: Section, base: Path) -> ExperimentConfig:
     if source == "measured":
         m = sec.section("measured", required=True)
         period = m.float("sample_period_s", None, lo=0.0, strict_lo=True)  # first: a NaN is named before all else
+        holdout = m.float("holdout_fraction", 0.0, lo=0.0, hi=0.5)
         file, tau_file = m.str("file"), m.str("tau_file", None)
         angle_unit = m.str("angle_unit", "rad", choices=tuple(ANGLE_UNITS))
         time_unit = m.str("time_unit", "s", choices=tuple(TIME_UNITS))
@@ -353,7 +355,6 @@ def _experiment(sec: Section, base: Path) -> ExperimentConfig:
         time, q, tau = cols.str("time", None), tuple(cols.list("q")), tuple(cols.list("tau"))
         cols.check_unknown()
         transmission = _transmission(m.section("transmission"), len(q)) if m.has("transmission") else None
-        holdout = m.float("holdout_fraction", 0.0, lo=0.0, hi=0.5)
         m.check_unknown()
         if not q:
             raise cols.error("q", "names no column: give one position column per joint.")
@@ -557,6 +558,11 @@ def load_study(path: str | Path) -> StudyConfig:
     if exact.e_max is not None and exact.e_max_rule is not None:  # last: boundid.docs reads every key first
         raise ex.error("e_max_rule", "and e_max are both given: keep one, the number or the rule.")
     cfg = replace(cfg, estimators=tuple(_bind_estimators(ex, exact, list(estimators), estimator_sections)))
+    if experiment.measured is not None and experiment.measured.holdout_fraction > 0 \
+            and "inverse_dynamic" not in regressions:
+        raise StudyError(f"{path}: experiment.measured.holdout_fraction: the held-out torques are predicted by the "
+                         "inverse_dynamic rows' estimates; add \"inverse_dynamic\" to regressions (with an estimator "
+                         "on it), or remove holdout_fraction.")
     if isinstance(exact.e_max, tuple) and len(exact.e_max) != model.n_joints:
         raise ex.error("e_max", f"lists {len(exact.e_max)} bounds but the {robot} model has {model.n_joints} joints: "
                                 "give one per joint, in the model's joint order, or one number for every row.")

@@ -21,6 +21,7 @@ combination of the base parameters beta = K x, i.e. a = K^T c; then its value is
 from __future__ import annotations
 
 import csv
+import difflib
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -87,7 +88,13 @@ def functional(expression: str, model) -> np.ndarray | None:
         elif name in symbols:
             a += coef * K[symbols.index(name)]
         else:
-            raise InputError(f"{name!r} in {expression!r} is not a parameter of the {model.name} model.")
+            known = list(dict.fromkeys([*symbols, *std]))
+            near = difflib.get_close_matches(name, known, n=3)
+            where = "" if expression.strip() == name else f" in {expression!r}"
+            raise InputError(f"{name!r}{where} is not a parameter of the {model.name} model"
+                             + (f" (did you mean {' or '.join(map(repr, near))}?)" if near else "")
+                             + (f"; its parameters: {', '.join(known)}." if len(known) <= 30 else
+                                f"; `boundid list` shows its {len(known)} parameter names."))
     c, *_ = np.linalg.lstsq(K.T, a, rcond=None)
     return c if np.linalg.norm(K.T @ c - a) <= COMBINATION_RTOL * np.linalg.norm(a) else None
 
@@ -151,8 +158,9 @@ def check_published(tables: tuple[PublishedTable, ...], model, file) -> None:
             try:
                 functional(t.names.get(name, name), model)
             except InputError as exc:
-                raise StudyError(f"{file}: published {t.label!r}, entry {name!r}: {exc} Map it with "
-                                 f"names = {{\"{name}\" = \"<expression in the model's names>\"}}.") from None
+                raise StudyError(f"{file}: published {t.label!r}, entry {name!r}: {exc} Where the source names a "
+                                 f"quantity of this model otherwise, map it: names = {{\"{name}\" = \"<expression in "
+                                 "the model's names>\"}.") from None
 
 
 def smallest_factor(P: Polytope, C: np.ndarray, values: np.ndarray) -> float:

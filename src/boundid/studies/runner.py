@@ -252,9 +252,9 @@ def reference_values(cfg: StudyConfig, model: RobotModel) -> tuple[np.ndarray, s
 
 def tidy_table(cfg: StudyConfig, model: RobotModel, estimates: dict[tuple[str, str], Estimate],
                exact: ExactResult | None) -> pd.DataFrame:
-    """One row per estimator x regression x parameter: centre, lo, hi, truth, prior, kind, and
-    containments. ``truth`` is the simulator's value, or for measured data the study file's reference
-    value where it lists one (NaN otherwise: never the prior):
+    """One row per estimator x regression x parameter: centre, lo, hi, truth, prior (the prior box's
+    centre), kind, and containments. ``truth`` is the simulator's value, or for measured data the study
+    file's reference value where it lists one (NaN otherwise: never the prior):
 
     truth_in_interval : lo_j <= truth_j <= hi_j for this parameter (NA without a truth value)
     truth_in_set : theta_true lies in the estimate's set -- its guaranteed or confidence set, of
@@ -265,6 +265,7 @@ def tidy_table(cfg: StudyConfig, model: RobotModel, estimates: dict[tuple[str, s
         truth in a corner of the box, outside the ellipsoid, has True here and False there.
     """
     known = cfg.experiment.source == "simulate"
+    prior_center = prior_box(model, cfg.prior)[0]
     ref = reference_values(cfg, model)
     truth = np.full(model.p, np.nan) if ref is None else ref[0]
     sets = []  # (label, method, regression, kind, centre, (lo, hi), truth in set, level)
@@ -282,7 +283,7 @@ def tidy_table(cfg: StudyConfig, model: RobotModel, estimates: dict[tuple[str, s
             inside = bool(lo[j] <= truth[j] <= hi[j]) if np.isfinite(truth[j]) else pd.NA
             rows.append({"study": cfg.name, "estimator": label, "method": method, "regression": regname,
                          "parameter": name, "unit": model.param_units[j], "center": center[j], "lo": lo[j],
-                         "hi": hi[j], "truth": truth[j], "prior": model.theta_prior[j], "kind": kind,
+                         "hi": hi[j], "truth": truth[j], "prior": prior_center[j], "kind": kind,
                          "level": level, "truth_in_interval": inside, "truth_in_set": in_set,
                          "truth_in_all_intervals": in_box})
     table = pd.DataFrame(rows)
@@ -329,7 +330,8 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
     model = make_robot(cfg.robot, cfg.robot_options)
 
     t0 = time.perf_counter()
-    with progress.stage(f"{cfg.name}: simulate and measure"):
+    with progress.stage(f"{cfg.name}: " + ("read the recording" if cfg.experiment.source == "measured"
+                                           else "simulate and measure")):
         data = acquire(cfg, model, rng)
     timings["data"] = time.perf_counter() - t0
 
