@@ -482,3 +482,16 @@ def test_prose_columns_are_left_aligned_and_wrapped():
     table = html[html.index('id="tab-setup"'):]
     assert table.count('<td class="prose">') == 2 and table.count('<th class="prose">') == 1
     assert "<td>a</td>" in table and "<td>1</td>" in table
+
+
+def test_position_step_is_the_encoders_resolution():
+    """A 12-bit encoder's angles (2 pi / 4096 = 1.5e-3 rad a count) at h = 1 ms: the smallest step and
+    its 1.5 rad/s over one period."""
+    from boundid.experiments.recording import Recording
+    from boundid.report.study_page import position_step_text
+
+    t = np.arange(2000) * 1e-3
+    count = 2 * np.pi / 4096
+    q = np.round(np.c_[np.sin(t), 0.3 * np.cos(2 * t)] / count) * count
+    text = position_step_text(Recording(t, q, np.c_[t, t]))
+    assert text.startswith("0.0015, 0.0015 rad by joint") and "over one sample period 1.5, 1.5 rad/s" in text

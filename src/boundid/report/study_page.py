@@ -61,6 +61,8 @@ def _setup(r: StudyResult) -> dict:
         n = exp.torque_noise
         setup["torque noise"] = "none" if n.kind == "none" else f"{n.kind}, level {n.level:g} N m"
         setup["encoder"] = f"{exp.encoder_counts_per_rev} counts/rev" if exp.encoder_counts_per_rev else "exact"
+    else:
+        setup["position step"] = position_step_text(rec)
     setup["regressions"] = ", ".join(f"{k} ({v.n_rows} rows, {v.unit})" for k, v in r.regressions.items())
     for k, v in r.regressions.items():
         if v.dropped is not None and v.dropped.rows:
@@ -75,6 +77,19 @@ def _setup(r: StudyResult) -> dict:
         f"{k} {v:.1f}" for k, v in r.timings.items()) + ")"
     setup["platform"] = platform_line()
     return setup
+
+
+def position_step_text(rec) -> str:
+    """Each joint's smallest change of position between samples (the encoder's resolution, seen from
+    the joint) and that step over one sample period, the velocity noise a difference makes of it."""
+    steps = []
+    for j in range(rec.n_joints):
+        d = np.abs(np.diff(rec.q[:, j]))
+        d = d[d > 1e-12 * max(1.0, float(np.abs(rec.q[:, j]).max()))]
+        steps.append(float(d.min()) if d.size else float("nan"))
+    return (", ".join(f"{s:.2g}" for s in steps) + " rad by joint (the smallest change between samples); over one "
+            f"sample period {', '.join(f'{s / rec.h:.2g}' for s in steps)} rad/s: a coarse step is velocity noise "
+            "that differences and the filtered models amplify, and the bound must cover it")
 
 
 def platform_line() -> str:
