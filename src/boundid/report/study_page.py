@@ -1052,6 +1052,8 @@ def write_study_report(r: StudyResult, out_dir: str | Path) -> Path:
     page = study_page(r)
     with replace_folder(out_dir, keep=("campaign",)) as tmp:
         r.table.to_csv(tmp / "results.csv", index=False)
+        from boundid.report.verdict_file import write_verdict_file
+        write_verdict_file(r, tmp)  # verdict.json: every check of the run (docs/verdict-file.md)
         _export_section(page, r, tmp / "export")
         page.write(tmp / "index.html")
     return out_dir / "index.html"

@@ -9,28 +9,35 @@ and its :class:`~boundid.studies.runner.ExactResult`), nothing recomputed:
 2. Are the guarantees verified? Every guaranteed set on the exact regression contains the exact
    feasible polytope (``ExactResult.certificates[label].contains_polytope``).
 3. Were there failures? (``StudyResult.failures``: estimators, exact optima, validation.)
+
+and, named in the line only when it fails: does the truth lie in every guaranteed set and every
+physically consistent interval (simulated data; the truth checks of ``verdict.json``,
+:mod:`boundid.report.verdict_file`, which holds every check with its value and limit).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 
 @dataclass(frozen=True)
 class Verdict:
-    """The three answers for one run; ``ok`` when the bound holds (or cannot be judged), every
-    checked guaranteed set contains the polytope and nothing failed. ``line`` is the sentence."""
+    """The answers for one run; ``ok`` when the bound holds (or cannot be judged), every
+    checked guaranteed set contains the polytope, no set or physically consistent interval misses the
+    truth and nothing failed. ``line`` is the sentence."""
 
     bound_holds: bool | None  # None: not judged (no exact regression, or the consistency LP failed)
     guarantees_verified: bool | None  # None: no guaranteed set was certified
     n_failures: int
     line: str
+    truth_inside: bool | None = None  # None: not judged (measured data, no exact regression, no set)
 
     @property
     def ok(self) -> bool:
-        return self.bound_holds is not False and self.guarantees_verified is not False and self.n_failures == 0
+        return (self.bound_holds is not False and self.guarantees_verified is not False
+                and self.truth_inside is not False and self.n_failures == 0)
 
 
 def _bound(r) -> tuple[bool | None, str]:
@@ -66,6 +73,8 @@ def _guarantees(r) -> tuple[bool | None, str]:
     tail = f"; {len(unverified)} set(s) unverified by their estimator ({', '.join(unverified)})" if unverified else ""
     if not guaranteed:
         return None, "no guaranteed set to verify" + tail
+    if not ex.consistent:
+        return None, "no exact polytope to verify the guaranteed sets against (it is empty)" + tail
     certified = {lab: ex.certificates[lab] for lab in guaranteed if lab in ex.certificates}
     missing = [lab for lab in guaranteed if lab not in certified]
     outside = [lab for lab, c in certified.items() if not c.contains_polytope]
@@ -87,10 +96,27 @@ def _failures(r) -> str:
     return f"{len(r.failures)} failure{'s' * (len(r.failures) > 1)} ({what}; see the page's last section)"
 
 
+def _truth_outside(r, bound: bool | None) -> tuple[bool | None, str]:
+    """(truth inside, words): the truth checks of verdict.json (and, for simulated data whose bound
+    holds at the truth, its gamma* check: the data contradict the bound only when the truth lies
+    outside the prior box); words only when one fails."""
+    from boundid.report import verdict_file as vf
+
+    found = [vf.truth_in_guaranteed_sets(r), vf.physical_bounds_contain_truth(r)]
+    if bound is True and r.config.experiment.source == "simulate":
+        found.append(vf.gamma_star(r))
+    failed = [c.summary for c in found if c.status == "fail"]
+    if failed:
+        return False, "; ".join(failed)
+    return (True if any(c.status == "pass" for c in found[:2]) else None), ""
+
+
 def run_verdict(r) -> Verdict:
     """The verdict of the study result ``r`` (a :class:`~boundid.studies.runner.StudyResult`)."""
     bound, bound_text = _bound(r)
     verified, verified_text = _guarantees(r)
-    head = "OK" if bound is not False and verified is not False and not r.failures else "ATTENTION"
-    line = f"{r.config.name}: {head}: {bound_text}; {verified_text}; {_failures(r)}."
-    return Verdict(bound, verified, len(r.failures), line)
+    inside, outside_text = _truth_outside(r, bound)
+    v = Verdict(bound, verified, len(r.failures), "", inside)
+    line = (f"{r.config.name}: {'OK' if v.ok else 'ATTENTION'}: {bound_text}; {verified_text}; "
+            + (f"{outside_text}; " if outside_text else "") + f"{_failures(r)}.")
+    return replace(v, line=line)
