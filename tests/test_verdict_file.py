@@ -126,7 +126,7 @@ def test_the_schema_is_a_2020_12_schema_and_refuses_what_it_must(ok_run):
     is not an integer, a gate flipped, a check missing, out of order or unknown, an unknown
     status or field: each refused."""
     jsonschema.Draft202012Validator.check_schema(vf.SCHEMA)
-    doc = _valid(json.loads(json.dumps(vf.verdict_document(ok_run[1]))))
+    doc = _valid(json.loads(json.dumps(vf.verdict_document(ok_run[1], run_verdict(ok_run[1]).line))))
 
     def edited(fn):
         d = copy.deepcopy(doc)
@@ -277,13 +277,13 @@ def test_a_set_that_misses_the_truth_under_a_bound_that_holds_fails(ok_run, tmp_
                     intervals=(obe.intervals[0] + shift, obe.intervals[1] + shift))
     broken = replace(r, estimates={**r.estimates, key: moved})
     assert moved.guaranteed and not _in_ellipsoid(moved, r.model.theta_true)
-    doc = _valid(json.loads(json.dumps(vf.verdict_document(broken))))
+    doc = _valid(json.loads(json.dumps(vf.verdict_document(broken, run_verdict(broken).line))))
     assert _check(doc, "bound_at_truth")["status"] == "pass"
     assert _check(doc, "truth_in_guaranteed_sets")["status"] == "fail" and doc["exit_code"] == 3
-    assert vf.exit_code([doc]) == 3 and vf.exit_code([_valid(vf.verdict_document(r))]) == 0
+    assert vf.exit_code([doc]) == 3 and vf.exit_code([_valid(vf.verdict_document(r, run_verdict(r).line))]) == 0
     v = run_verdict(broken)
     assert not v.ok and v.truth_inside is False and "the truth lies OUTSIDE OBE-factorized (of 1" in v.line
-    path = vf.write_verdict_file(broken, tmp_path)
+    path = vf.write_verdict_file(broken, tmp_path, run_verdict(broken).line)
     assert _valid(vf.read_verdict_file(path)) == doc
 
 
@@ -333,7 +333,7 @@ def test_measured_data_never_pass_a_truth_check(tmp_path, capsys):
     one = g["details"]["gamma_star_one"]
     _, r = run_study_text(tmp_path, "vf_low", text.replace('e_max_rule = { factor = 2.0, scaling = "one" }',
                                                            f"e_max = {0.8 * one!r}"))
-    doc = _valid(json.loads(json.dumps(vf.verdict_document(r))))
+    doc = _valid(json.loads(json.dumps(vf.verdict_document(r, run_verdict(r).line))))
     assert doc["exit_code"] == 3 and doc["failed_gates"] == ["gamma_star", "bound_margin"]
     assert _check(doc, "gamma_star")["value"] == pytest.approx(1.25, rel=1e-6)
     assert _check(doc, "bound_margin")["value"] == pytest.approx(0.8, rel=1e-6)
@@ -355,7 +355,7 @@ regressions = ["filtered_dynamic", "supplied_energy", "filtered_power"]
     _, r = run_study_text(tmp_path, "vf_claims", text)
     found = claims(r)
     assert found
-    doc = _valid(json.loads(json.dumps(vf.verdict_document(r))))
+    doc = _valid(json.loads(json.dumps(vf.verdict_document(r, run_verdict(r).line))))
     c = _check(doc, "paper_claims")
     counts = Counter(x.verdict for x in found)
     assert c["details"]["counts"] == {v: counts.get(v, 0) for v in VERDICTS}

@@ -22,6 +22,8 @@ from boundid.report import figures as F
 from boundid.report.html import Page
 from boundid.report.output import replace_folder
 from boundid.report.tables import deviation_percent, estimate_summary, parameter_table
+from boundid.report.verdict import run_verdict
+from boundid.report.verdict_file import write_verdict_file
 from boundid.sets import log_unit_ball_volume
 from boundid.studies.bounds import bound_sweep, where_rows_sit
 from boundid.studies.certify_files import certificate_row
@@ -1052,8 +1054,7 @@ def write_study_report(r: StudyResult, out_dir: str | Path) -> Path:
     page = study_page(r)
     with replace_folder(out_dir, keep=("campaign",)) as tmp:
         r.table.to_csv(tmp / "results.csv", index=False)
-        from boundid.report.verdict_file import write_verdict_file
-        write_verdict_file(r, tmp)  # verdict.json: every check of the run (docs/verdict-file.md)
+        write_verdict_file(r, tmp, run_verdict(r).line)  # every check of the run (docs/verdict-file.md)
         _export_section(page, r, tmp / "export")
         page.write(tmp / "index.html")
     return out_dir / "index.html"

@@ -265,7 +265,7 @@ def physical_bounds_contain_truth(r) -> Check:
     if ph.error is not None:
         return _unjudged(cid, "the physically consistent bounds were not computed (see estimator_failures)")
     inside = ph.intervals["truth_inside"]
-    outside = [str(name) for name, v in inside.items() if v == "no"]
+    outside = [str(name) for name, v in inside.items() if isinstance(v, str) and v == "no"]
     details = {"parameters_outside": outside, "n_parameters": int(len(inside))}
     summary = (f"the physically consistent intervals of all {len(inside)} parameters contain the truth"
                if not outside else
@@ -358,15 +358,15 @@ def checks(r) -> list[Check]:
 # ------------------------------------------------------------------------------ the file
 
 
-def verdict_document(r) -> dict:
-    """The content of verdict.json for the study result ``r`` (strict JSON: numbers, null, strings)."""
-    from boundid.report.verdict import run_verdict
-
+def verdict_document(r, line: str) -> dict:
+    """The content of verdict.json for the study result ``r`` and its verdict ``line``
+    (:func:`boundid.report.verdict.run_verdict`, which reads these checks) (strict JSON: numbers,
+    null, strings)."""
     found = checks(r)
     failed = [c.id for c in found if c.failed_gate]
     return _plain({"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION, "study": r.config.name,
                    "data": "simulated" if _simulated(r) else "measured", "boundid_version": __version__,
-                   "verdict_line": run_verdict(r).line, "exit_code": EXIT_GUARANTEE if failed else EXIT_OK,
+                   "verdict_line": line, "exit_code": EXIT_GUARANTEE if failed else EXIT_OK,
                    "failed_gates": failed, "checks": [c.to_json() for c in found]})
 
 
@@ -385,10 +385,10 @@ def _plain(x):
     return x
 
 
-def write_verdict_file(r, folder: str | Path) -> Path:
-    """Write ``folder/verdict.json`` for the study result ``r``; its path."""
+def write_verdict_file(r, folder: str | Path, line: str) -> Path:
+    """Write ``folder/verdict.json`` for the study result ``r`` and its verdict ``line``; its path."""
     path = Path(folder) / FILE_NAME
-    text = json.dumps(verdict_document(r), indent=2, ensure_ascii=False, allow_nan=False)
+    text = json.dumps(verdict_document(r, line), indent=2, ensure_ascii=False, allow_nan=False)
     path.write_text(text + "\n", encoding="utf-8")
     return path
 
