@@ -75,8 +75,12 @@ def _setup(r: StudyResult) -> dict:
         if isinstance(value, int | float):
             setup[key.replace("_", " ")] = f"{value:.4g}"
     setup["seed"] = cfg.seed
-    setup["run time"] = f"{sum(r.timings.values()):.1f} s (" + ", ".join(
-        f"{k} {v:.1f}" for k, v in r.timings.items()) + ")"
+    parts = []
+    for k, v in r.timings.items():
+        inner = r.exact.time_s if k == "exact" and r.exact is not None else {}
+        parts.append(f"{k} {v:.1f}" + (" [" + ", ".join(f"{n.replace('_', ' ')} {t:.1f}" for n, t in inner.items())
+                                        + "]" if inner else ""))
+    setup["run time"] = f"{sum(r.timings.values()):.1f} s (" + ", ".join(parts) + ")"
     setup["platform"] = platform_line()
     return setup
 
