@@ -20,7 +20,7 @@ from boundid.estimators import OBE, ols
 from boundid.estimators.physical import physical_intersection, physical_least_squares
 from boundid.models import BaseParameterModel, DirectDriveArm, H4Robot, H4Truth, UrdfRobot
 from boundid.models.direct_drive import PHYSICAL, planar_arm_urdf
-from boundid.sets import Box
+from boundid.sets import Box, physical
 from boundid.sets.constraints import pseudo_inertia
 from boundid.sets.physical import PRIMAL_TOL, ConstrainedEllipsoid, PhysicalSet, physical_margin
 
@@ -432,7 +432,12 @@ def test_solver_failure_raises_solver_error(monkeypatch):
 
     def fail(self, *a, **k):
         raise cp.error.SolverError("stalled")
+
+    class Failing:  # the bounds' programs call Clarabel directly (boundid.sets.physical._StripProgram)
+        def __init__(self, *a, **k):
+            raise RuntimeError("stalled")
     monkeypatch.setattr(cp.Problem, "solve", fail)
+    monkeypatch.setattr(physical.clarabel, "DefaultSolver", Failing)
     with pytest.raises(SolverError, match="scaled coordinates"):
         S.bounds()
 

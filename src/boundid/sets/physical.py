@@ -21,7 +21,13 @@ optimum is a conic program solved by Clarabel [Clarabel] through cvxpy
 (:mod:`boundid.sets.conic`) by constraint generation over the strips, in the box frame of the
 plain polytope (theta = origin + scale * z, P spanning [-1, 1] along every z_j; unscaled, the
 solver fails). P's LP bounding box (widened by 1e-7 of its half-widths) is added to every conic
-program: it contains P_phys, so it changes nothing but keeps every working set bounded.
+program: it contains P_phys, so it changes nothing but keeps every working set bounded. The 2p
+programs of the bounds, most of a study's run time, call Clarabel directly (:class:`_StripProgram`:
+one working set of strips for all of them, grown as the objectives are solved in turn; each strip
+an equality row and a bounded variable of its own, so that each interior-point step eliminates one
+dense row per strip, not two; one solver set up per working set): measured on the six-joint UR5
+(p = 52, 2,987 rows) and TX40 (p = 61, 690 rows) studies, about 2 x faster than the same programs
+through cvxpy, the same bounds to the solver's accuracy (1e-5 of the widths).
 
 Certificates. Every optimal point (and the centre, and the consistency minimiser) is checked
 against every strip on the original data, the prior box and every constraint: the largest
@@ -44,12 +50,23 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
+import clarabel
 import cvxpy as cp
 import numpy as np
+import scipy.sparse as sp
 
 from boundid._validation import as_float_array, as_matrix, as_regression, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
-from boundid.sets.conic import ConicProblem, InfeasibleProblem, Pool, lmi_expressions
+from boundid.sets.conic import (
+    CLARABEL_LINALG,
+    GEN_TOL,
+    RETRY,
+    ConicProblem,
+    ConicResult,
+    InfeasibleProblem,
+    Pool,
+    lmi_expressions,
+)
 from boundid.sets.conic import solve as solve_conic
 from boundid.sets.constraints import PhysicalConstraints
 from boundid.sets.ellipsoid import Ellipsoid
@@ -210,6 +227,227 @@ def _margin_rows(vars_: _Vars, rho_scale: float):
     return lin, cones, lmis
 
 
+# ---------------------------------------------------------------------- the bounds' conic programs
+#: objectives solved on one working set before the strips their optima violate join it (so the
+#: objectives after them see those strips); an objective whose optimum violates a strip is solved
+#: again, after the others
+_QUEUE_BATCH = 8
+#: at most this many of the strips one optimum violates join the working set (the most violated)
+_ADD_STRIPS = 32
+#: an objective solved this many times without its optimum satisfying every strip: SolverError
+_MAX_SOLVES = 50
+
+
+def _svec_index(k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Clarabel's PSDTriangleConeT order of a symmetric (k, k) matrix: the upper triangle by
+    columns, (0,0), (0,1), (1,1), (0,2), ..., off-diagonal entries times sqrt 2 (so that the inner
+    product of two such vectors is that of the matrices). Returns the C-order flat indices of
+    (i, j) and of (j, i), and the weights."""
+    j, i = np.tril_indices(k)
+    return i * k + j, j * k + i, np.where(i == j, 1.0, np.sqrt(2.0))
+
+
+def _svec(M: np.ndarray) -> np.ndarray:
+    """svec of the symmetric part of a (k, k) matrix (:func:`_svec_index`)."""
+    up, lo, w = _svec_index(M.shape[0])
+    return 0.5 * (M.ravel()[up] + M.ravel()[lo]) * w
+
+
+def _smat(s: np.ndarray, k: int) -> np.ndarray:
+    """The symmetric (k, k) matrix of an svec (inverse of :func:`_svec`)."""
+    j, i = np.tril_indices(k)
+    M = np.zeros((k, k))
+    vals = np.where(i == j, s, s / np.sqrt(2.0))
+    M[i, j] = vals
+    M[j, i] = vals
+    return M
+
+
+class _StripProgram:
+    """min c^T v over the fixed parts of a :class:`ConicProblem` (its rows, cones, LMIs and box)
+    and the strips |G_k^T v - c_k| <= h_k, for many objectives c: Clarabel [Clarabel] called
+    directly (as cvxpy calls it: its default settings, CLARABEL_LINALG, RETRY after a numerical
+    failure), with constraint generation over one shared working set of strips.
+
+    Each strip of the working set is one equality row G_k^T v - r_k = c_k and the bound |r_k| <= h_k
+    on a variable r_k of its own, not the two rows +-(G_k^T v) <= h_k +- c_k: the same feasible set
+    of v, but the sparse LDL factorisation of each interior-point step eliminates one dense row per
+    strip instead of two (1.45 x less time per step on the TX40 study's programs, 1.55 x on the
+    UR5's).
+
+    Working set (as :meth:`ConicProblem.minimize_many`, but the objectives are solved in a queue):
+    the objectives are solved in batches of _QUEUE_BATCH on the current working set; the strips
+    each optimum violates (by more than GEN_TOL, at most _ADD_STRIPS of them, the most violated)
+    then join it and that objective goes to the back of the queue, so the objectives solved later
+    start with those strips. An optimum that violates no strip is optimal over every strip (the
+    working set is a relaxation). info: rounds (working sets solved on), solves, working_rows
+    (strips in the last working set).
+
+    Dual bound (module docstring of :mod:`boundid.sets.conic`): with Clarabel's multipliers z
+    (projected onto the dual cones) of  min q^T u s.t. A u + s = b, s in K,  every feasible u has
+    q^T u >= (q + A^T z)^T u - b^T z, minimised over the box of u: ConicProblem's box for v and
+    [-h_k, h_k] for r_k. NaN when the ConicProblem has no box.
+    """
+
+    def __init__(self, prob: ConicProblem, G: np.ndarray, c: np.ndarray, h: np.ndarray):
+        n = prob.n
+        self.prob, self.n = prob, n
+        fin = np.isfinite(h)
+        self.G, self.c, self.h, self.fin = G, c, h, fin
+        self.le_A = np.vstack([A for A, _ in prob.le]) if prob.le else np.zeros((0, n))
+        self.le_b = np.concatenate([b for _, b in prob.le]) if prob.le else np.zeros(0)
+        rows, rhs, self.cones = [], [], []
+        for Gs, g, f, d in prob.socs:                  # (f^T v + d, G v + g) in the cone: s = b - A v
+            rows.append(-np.vstack([f[None, :], Gs]))
+            rhs.append(np.concatenate([[d], g]))
+            self.cones.append(("soc", 1 + len(g)))
+        for F0, F in prob.psds:
+            k = F0.shape[0]
+            up, lo, w = _svec_index(k)
+            Fm = F.reshape(n, k * k).T                 # svec(F(v)) = svec(F0) + Sm v
+            rows.append(-0.5 * (Fm[up] + Fm[lo]) * w[:, None])
+            rhs.append(_svec(F0))
+            self.cones.append(("psd", k))
+        self.cone_A = np.vstack(rows) if rows else np.zeros((0, n))
+        self.cone_b = np.concatenate(rhs) if rhs else np.zeros(0)
+
+    # ------------------------------------------------------------------ one working set
+    def _model(self, ws: np.ndarray):
+        """(A, b, Clarabel cones) on u = (v, r) for the strips ``ws``: rows [equalities; rows of the
+        problem; r <= h; -r <= h; cones; LMIs]."""
+        n, m = self.n, len(ws)
+        I = sp.identity(m, format="csr")
+        Z = sp.csr_matrix
+        A = sp.vstack([sp.hstack([Z(self.G[ws]), -I]),
+                       sp.hstack([Z(self.le_A), Z((self.le_A.shape[0], m))]),
+                       sp.hstack([Z((m, n)), I]),
+                       sp.hstack([Z((m, n)), -I]),
+                       sp.hstack([Z(self.cone_A), Z((self.cone_A.shape[0], m))])], format="csc")
+        A.eliminate_zeros()
+        b = np.concatenate([self.c[ws], self.le_b, self.h[ws], self.h[ws], self.cone_b])
+        cones = [clarabel.ZeroConeT(m)] if m else []
+        if self.le_A.shape[0] + 2 * m:
+            cones.append(clarabel.NonnegativeConeT(self.le_A.shape[0] + 2 * m))
+        for kind, k in self.cones:
+            cones.append(clarabel.SecondOrderConeT(k) if kind == "soc" else clarabel.PSDTriangleConeT(k))
+        return A, b, cones
+
+    def _solve(self, model, q: np.ndarray):
+        """One Clarabel solve of ``model`` (A, b, cones, [solver]) for the cost q: (status, u, z) with
+        the status in cvxpy's words ("optimal" or "optimal_inaccurate"). The model's solver is set up
+        once and then only given the new cost (Clarabel's data update: the same iterates as a new
+        solver, bit for bit, without its setup); after a numerical failure a new solver with the RETRY
+        settings tries once more."""
+        A, b, cones, cache = model
+        N = A.shape[1]
+        for extra in ({}, RETRY):
+            try:
+                if extra or not cache:
+                    settings = clarabel.DefaultSettings()
+                    settings.verbose = False
+                    for key, val in {**CLARABEL_LINALG, **extra}.items():
+                        setattr(settings, key, val)
+                    solver = clarabel.DefaultSolver(sp.csc_matrix((N, N)), q, A, b, cones, settings)
+                    if not extra:
+                        cache.append(solver)
+                else:
+                    solver = cache[0]
+                    solver.update(q=q)
+                sol = solver.solve()
+                status = str(sol.status)
+            except Exception as exc:                    # noqa: BLE001 (reported below like cvxpy's errors)
+                sol, status = None, f"solver error ({exc})"
+            if status in ("Solved", "AlmostSolved", "PrimalInfeasible", "AlmostPrimalInfeasible"):
+                break
+        if status in ("PrimalInfeasible", "AlmostPrimalInfeasible"):
+            raise InfeasibleProblem(self.prob.what)
+        if status not in ("Solved", "AlmostSolved"):
+            raise SolverError(
+                f"{self.prob.what}: Clarabel returned '{status}'. The problem is solved in scaled coordinates "
+                "already; check that the data and the prior box bound every parameter (or give CAD bounds for "
+                "the standard parameters of a base model), and report the case if it persists.")
+        return ("optimal" if status == "Solved" else "optimal_inaccurate"), np.asarray(sol.x), np.asarray(sol.z)
+
+    def _dual_bound(self, q: np.ndarray, A, b, z: np.ndarray, ws: np.ndarray) -> float:
+        """The Lagrangian lower bound of the class docstring (NaN without a box)."""
+        if self.prob.box is None or not np.all(np.isfinite(z)):
+            return float("nan")
+        z = z.copy()
+        m = len(ws)
+        start = m                                      # the equality rows' multipliers are free
+        n_nonneg = self.le_A.shape[0] + 2 * m
+        z[start:start + n_nonneg] = np.clip(z[start:start + n_nonneg], 0.0, None)
+        at = start + n_nonneg
+        for kind, k in self.cones:
+            if kind == "soc":
+                z[at] = max(z[at], float(np.linalg.norm(z[at + 1:at + k])))
+                at += k
+            else:
+                size = k * (k + 1) // 2
+                w, U = np.linalg.eigh(_smat(z[at:at + size], k))
+                z[at:at + size] = _svec((U * np.clip(w, 0.0, None)) @ U.T)
+                at += size
+        g = q + A.T @ z
+        const = -float(b @ z)
+        lo = np.concatenate([self.prob.box[0], -self.h[ws]])
+        hi = np.concatenate([self.prob.box[1], self.h[ws]])
+        with np.errstate(invalid="ignore"):
+            terms = np.minimum(g * lo, g * hi)
+        terms = np.where(g == 0, 0.0, terms)
+        return const + float(terms.sum()) - 1e-12 * (abs(const) + float(np.abs(terms).sum()))
+
+    # ------------------------------------------------------------------ all objectives
+    def minimize_many(self, costs: np.ndarray, seed=()) -> ConicResult:
+        """argmin of each row of ``costs`` (k, n) over the fixed parts and every strip."""
+        costs = np.atleast_2d(np.asarray(costs, float))
+        k, n = costs.shape[0], self.n
+        X = np.full((k, n), np.nan)
+        values, dual = np.full(k, np.nan), np.full(k, np.nan)
+        status = [""] * k
+        in_ws = np.zeros(len(self.h), dtype=bool)
+        in_ws[np.asarray(seed, dtype=int)] = True
+        in_ws &= self.fin
+        queue, solved = list(range(k)), np.zeros(k, dtype=int)
+        rounds = solves = 0
+        while queue:
+            batch, queue = queue[:_QUEUE_BATCH], queue[_QUEUE_BATCH:]
+            ws = np.flatnonzero(in_ws)
+            A, b, cones = self._model(ws)
+            model = (A, b, cones, [])
+            rounds += 1
+            for i in batch:
+                q = np.concatenate([costs[i], np.zeros(len(ws))])
+                status[i], u, z = self._solve(model, q)
+                solves += 1
+                solved[i] += 1
+                X[i] = u[:n]
+                values[i] = float(costs[i] @ X[i])
+                dual[i] = self._dual_bound(q, A, b, z, ws)
+            viol = np.abs(self.G @ X[batch].T - self.c[:, None]) - self.h[:, None]   # (m, len(batch))
+            viol[~self.fin] = -np.inf
+            solved_on = in_ws.copy()                   # the working set these optima saw
+            for col, i in enumerate(batch):
+                new = np.flatnonzero((viol[:, col] > GEN_TOL) & ~solved_on)
+                if new.size:
+                    if solved[i] >= _MAX_SOLVES:
+                        raise SolverError(f"{self.prob.what}: constraint generation did not converge in {solves} "
+                                          f"solves ({int(in_ws.sum())} working strips).")
+                    if new.size > _ADD_STRIPS:
+                        new = new[np.argpartition(viol[new, col], -_ADD_STRIPS)[-_ADD_STRIPS:]]
+                    in_ws[new] = True
+                    queue.append(i)
+        info = {"rounds": rounds, "solves": solves, "working_rows": int(in_ws.sum())}
+        return ConicResult(X, values, dual, status, info)
+
+
+def _same_polytope(P: Polytope, Q: Polytope) -> bool:
+    """Whether two plain polytopes have the same strips and prior box."""
+    if P.W.shape != Q.W.shape or (P.box is None) != (Q.box is None):
+        return False
+    same = np.array_equal(P.W, Q.W) and np.array_equal(P.y, Q.y) and np.array_equal(P.e_max, Q.e_max)
+    return bool(same and (P.box is None or all(np.array_equal(a, b) for a, b in zip(P.box, Q.box, strict=True))))
+
+
 class PhysicalSet:
     """P_phys = strips ∩ prior box ∩ physical constraints (module docstring).
 
@@ -219,13 +457,21 @@ class PhysicalSet:
     constraints : :class:`~boundid.sets.constraints.PhysicalConstraints` with p parameters
         (e.g. ``model.physical_constraints()``).
     box : optional (lo, hi), each (p,), the prior box (+-inf for an open side).
+    plain : optional, the plain polytope P of the same W, y, e_max and box (e.g. a study's exact
+        polytope, whose LP bounds are solved already): used as :attr:`plain`, so that its LP bounds
+        and frame are not solved a second time (the answers are the same: they are deterministic).
     """
 
-    def __init__(self, W, y, e_max, constraints: PhysicalConstraints, box=None):
+    def __init__(self, W, y, e_max, constraints: PhysicalConstraints, box=None, plain: Polytope | None = None):
         if not isinstance(constraints, PhysicalConstraints):
             raise InputError(f"constraints must be a PhysicalConstraints (e.g. model.physical_constraints()), "
                              f"got {type(constraints).__name__}.")
         self.plain = Polytope(W, y, e_max, box=box)
+        if plain is not None:
+            if not isinstance(plain, Polytope) or plain.halfspaces is not None or not _same_polytope(plain, self.plain):
+                raise InputError("plain must be the Polytope of the same W, y, e_max and box (no halfspaces), "
+                                 "e.g. Polytope(W, y, e_max, box=box).")
+            self.plain = plain
         if constraints.n_params != self.plain.dim:
             raise InputError(f"the constraints are on {constraints.n_params} parameters but W has {self.plain.dim} "
                              "columns; take them from the same model.")
@@ -463,18 +709,6 @@ class PhysicalSet:
         p, n = self.dim, V.n
         zlo, zhi = self._z_box(origin, scale, lp_box)
         G, c, h = self._strips(origin, scale)
-        GT = G @ V.T
-        fin = np.isfinite(h)
-
-        def rows(idx):
-            idx = idx[fin[idx]]
-            off = G[idx] @ V.t0
-            return np.vstack([GT[idx], -GT[idx]]), np.concatenate([c[idx] + h[idx] - off, h[idx] - c[idx] + off])
-
-        def violation(Vt):
-            out = np.abs(G @ (V.T @ Vt + V.t0[:, None]) - c[:, None]) - h[:, None]
-            return np.where(fin[:, None], out, -np.inf)
-
         plain_b = self.plain.bounds()
         seed = self._seed(G, c, h, (plain_b.vertices() - origin) / scale)
         costs = np.vstack([V.T, -V.T])
@@ -483,8 +717,10 @@ class PhysicalSet:
         if V.lifted:
             self._add_z_box(prob, V, zlo, zhi)
         self._constraint_parts(prob, V)
+        # the strips on v: |G (T v + t0) - c| <= h
+        program = _StripProgram(prob, G @ V.T, c - G @ V.t0, h)
         try:
-            r = prob.minimize_many(costs, Pool(rows, violation, len(h)), seed=seed)
+            r = program.minimize_many(costs, seed=seed)
         except InfeasibleProblem:
             raise self._empty_error(self.consistency()) from None
         Z = V.z(r.points)

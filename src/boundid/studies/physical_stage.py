@@ -125,7 +125,7 @@ def physical_stage(P: Polytope, constraints: PhysicalConstraints, names, estimat
     estimates : label -> Estimate (only statistical ones are judged); truth : (p,) or None.
     """
     t0 = time.perf_counter()
-    S = PhysicalSet(P.W, P.y, P.e_max, constraints, box=P.box)
+    S = PhysicalSet(P.W, P.y, P.e_max, constraints, box=P.box, plain=P)  # P's LP bounds, solved once
     est_rows = _estimate_rows(constraints, estimates)
     n_cons = len(constraints)
     empty = pd.DataFrame(columns=["plain_lo", "plain_hi", "phys_lo", "phys_hi", "width_ratio", "narrower",
