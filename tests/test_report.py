@@ -495,3 +495,12 @@ def test_position_step_is_the_encoders_resolution():
     q = np.round(np.c_[np.sin(t), 0.3 * np.cos(2 * t)] / count) * count
     text = position_step_text(Recording(t, q, np.c_[t, t]))
     assert text.startswith("0.0015, 0.0015 rad by joint") and "over one sample period 1.5, 1.5 rad/s" in text
+
+
+def test_the_header_files_may_wrap():
+    """The header's file links are separated by spaces, so that a page with many files (the TX40's exports:
+    nine) wraps them instead of scrolling sideways as a whole."""
+    from boundid.report.html import site_header
+
+    header = site_header("t", "../index.html", files=[(f"file{k}.csv", f"file{k}.csv") for k in range(9)])
+    assert header.count("</a> <a") == 8

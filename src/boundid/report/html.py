@@ -85,6 +85,7 @@ header.site > div { max-width: 1040px; margin: 0 auto; padding: .45rem 1.25rem; 
                     justify-content: space-between; gap: .2rem 1.5rem; }
 header.site .crumbs a { font-weight: 600; } header.site .sep { color: var(--muted); margin: 0 .35rem; }
 header.site .here { color: var(--muted); }
+header.site .pagefiles { min-width: 0; }
 header.site .pagefiles a { margin-left: .7rem; white-space: nowrap; }
 ul.filelist li { margin: .15rem 0; }
 div.entry { margin: .9rem 0 1.3rem; padding-left: .9rem; border-left: 3px solid var(--line); }
@@ -144,7 +145,7 @@ def site_header(title: str, home: str | None, trail: Sequence[tuple[str, str]] =
     crumbs += [f'<a href="{html.escape(href)}">{html.escape(label)}</a>' for label, href in trail]
     crumbs.append(f'<span class="here">{html.escape(title)}</span>')
     sep = '<span class="sep">›</span>'
-    links = "".join(f'<a href="{html.escape(href)}">{html.escape(label)}</a>' for label, href in files)
+    links = " ".join(f'<a href="{html.escape(href)}">{html.escape(label)}</a>' for label, href in files)  # may wrap
     right = f'<span class="pagefiles">Files:{links}</span>' if links else ""
     return f'<header class="site"><div><span class="crumbs">{sep.join(crumbs)}</span>{right}</div></header>'
 
