@@ -19,7 +19,8 @@ from boundid.studies.config import load_study
 from boundid.studies.runner import Failure, run_study
 from tiny_study import tiny_study
 
-TINY = tiny_study("dd_verdict", 7) + """
+#: WLS, a factorized OBE and the exact polytope on the tiny study's rows, at the bound E_MAX
+ESTIMATORS = """
 [[estimators]]
 method = "wls"
 regressions = ["filtered_dynamic"]
@@ -34,6 +35,7 @@ e_max = E_MAX
 regression = "filtered_dynamic"
 e_max = E_MAX
 """
+TINY = tiny_study("dd_verdict", 7) + ESTIMATORS
 
 
 def _study(tmp_path, e_max: float):

@@ -32,6 +32,7 @@ from boundid.studies import runner
 from boundid.studies.config import load_study
 from boundid.studies.reproduction import VERDICTS, claims
 from boundid.studies.runner import run_study
+from test_verdict import ESTIMATORS
 from tiny_study import measured_twin, run_study_text, tiny_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -39,29 +40,12 @@ DOC = (ROOT / "docs" / "verdict-file.md").read_text(encoding="utf-8")
 VALIDATOR = jsonschema.Draft202012Validator(vf.SCHEMA)
 GATES = [c for c, s in vf.CHECKS.items() if s.gate]
 
-STUDY = """
-[[estimators]]
-method = "wls"
-regressions = ["filtered_dynamic"]
-
-[[estimators]]
-method = "obe"
-label = "OBE-factorized"
-regressions = ["filtered_dynamic"]
-e_max = E_MAX
-
-[exact]
-regression = "filtered_dynamic"
-e_max = E_MAX
-"""
-
-
 def _study(folder: Path, name: str, e_max: float) -> Path:
     """The tiny direct-drive study (seed 7) with WLS, an OBE and the exact polytope at ``e_max``:
     6 N m holds at the truth (max 0.79 e_max); 3 N m is broken on 119 of 1600 rows, the data
     contradict it (gamma* 1.5 e_max) and the OBE, skipping 90 rows, misses the truth."""
     path = folder / f"{name}.toml"
-    path.write_text(tiny_study(name, 7) + STUDY.replace("E_MAX", repr(e_max)))
+    path.write_text(tiny_study(name, 7) + ESTIMATORS.replace("E_MAX", repr(e_max)))
     return path
 
 
