@@ -3,9 +3,12 @@
 Every function takes numpy arrays, dicts of arrays or 2-D :class:`~boundid.sets.ConvexSet` objects and
 returns a :class:`matplotlib.figure.Figure`. Figures are created with ``Figure()`` directly (not
 ``pyplot``), so they render with the Agg canvas whatever the interactive backend is, and nothing
-accumulates in pyplot's figure registry. Colours and markers come from the method registry
-(:func:`style_for`: each estimator's ``Method.style_for(options)``, set by :func:`method_styles`),
-so a method and variant has the same style in every figure of every report.
+accumulates in pyplot's figure registry. Every series has a colour, a marker and a line style
+that together differ from every other series of its figure (:func:`series_styles`, from the
+colour-blind-safe palette :data:`SERIES`; a study's series keep one style in every figure of its
+report, :meth:`boundid.studies.config.StudyConfig.styles` through :func:`method_styles`). Legends sit
+outside the axes at :data:`LEGEND_PT`, and the figure grows to hold them (nothing is cut off in the
+saved image; :func:`boundid.report.figure_check.figure_problems` checks it).
 """
 
 from __future__ import annotations
@@ -16,38 +19,81 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 
 import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Polygon, Rectangle
-from matplotlib.ticker import FormatStrFormatter, NullFormatter
+from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
 from boundid.errors import InputError
 from boundid.estimators.method import Style
 from boundid.sets.convex import ConvexSet
 
-# The references drawn beside the estimators (not methods of the registry): fixed colours.
-PALETTE: dict[str, str] = {
-    "LP exact": "#000000",
-    "SDP outer": "#009E73",
-    "SDP john": "#999933",
-    "SDP inner": "#44AA99",
-    "truth": "#000000",
-    "measured": "#4D4D4D",
+# The references drawn beside the estimators (not methods of the registry): black and greys, each
+# with its own line style, so that every colour of SERIES_COLORS is left to the estimators.
+REFERENCE_STYLES: dict[str, Style] = {
+    "LP exact": Style("#000000", "s", "--"),
+    "SDP outer": Style("#000000", "s", "-."),
+    "SDP john": Style("#777777", "^", "--"),
+    "SDP inner": Style("#000000", "d", ":"),
+    "truth": Style("#000000", "*", "--"),
+    "measured": Style("#4D4D4D", "", "-"),
 }
+PALETTE: dict[str, str] = {k: s.color for k, s in REFERENCE_STYLES.items()}
+
+# The estimators' series: the Okabe-Ito colour-blind-safe colours (black, kept for the references,
+# and yellow, unreadable on white, left out) and two of Paul Tol's (wine, olive), in an order that
+# keeps the first few series far apart.
+SERIES_COLORS = ("#0072B2", "#E69F00", "#009E73", "#CC79A7", "#D55E00", "#56B4E9", "#882255", "#999933")
+SERIES_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<")
+SERIES_LINESTYLES = ("-", "--", "-.", ":")
+
+
+def series_style(k: int) -> Style:
+    """The style of the k-th series (k >= 0) of the palette: colour k mod 8, line style (k // 8) mod 4,
+    marker (k + k // 8) mod 8. Series k and k + 8 share a colour but neither marker nor line style;
+    the first 16 series differ pairwise in colour or in both marker and line style, and the
+    (colour, marker, line style) triples of the first 64 are all different."""
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 0:
+        raise InputError(f"series_style needs an index k >= 0, got {k!r}.")
+    k = int(k)
+    return Style(SERIES_COLORS[k % 8], SERIES_MARKERS[(k + k // 8) % 8], SERIES_LINESTYLES[(k // 8) % 4])
+
+
+#: the palette of up to 16 series: colour, marker and line style together unique per series
+SERIES: tuple[Style, ...] = tuple(series_style(k) for k in range(16))
+
 # a label that is neither an estimator of the study in effect nor a reference (a lesson's own
-# series): a fixed colour-blind-safe colour chosen by a CRC32 hash of the label
-_FALLBACK = ("#332288", "#117733", "#AA4499", "#661100", "#6699CC", "#888888", "#DDCC77", "#CC6677")
+# series), styled alone by style_for: a colour chosen by a CRC32 hash of the label
+_FALLBACK = SERIES_COLORS
 # {estimator label: Style} of the study whose figures are being drawn (method_styles)
 _STYLES: ContextVar[Mapping[str, Style] | None] = ContextVar("method_styles", default=None)
 
 DPI = 110  # PNG resolution of embedded figures: legible and small (pages stay well under 3 MB)
-_AX_W, _AX_H = 3.3, 2.2  # inches per subplot
+_AX_W, _AX_H = 3.0, 2.2  # inches per subplot (3 columns: MAX_WIDTH_IN)
+LEGEND_PT = 9.0  # legend font size: >= 9 pt on the page (figures up to 9 in wide are shown at full size)
+MAX_WIDTH_IN = 9.0  # a page shows 1000 px: 9 in at DPI are shown unscaled
+
+
+def study_styles(cfg) -> dict[str, Style]:
+    """{series label: Style} of a study (a :class:`boundid.studies.config.StudyConfig`), what the report
+    draws each series with: one entry of the palette (:func:`series_style`, in the order of the study
+    file) per estimator and regression model ("RLS / filtered_dynamic"), so that no two series of a
+    study share colour, marker and line style (up to 64 series; the first 16 differ in colour or in
+    both marker and line style); an estimator's own label takes the style of its series on the exact
+    regression, else on its first regression."""
+    series = [(e.label, rn) for e in cfg.estimators for rn in e.regressions]
+    out = {f"{lab} / {rn}": series_style(k) for k, (lab, rn) in enumerate(series)}
+    for e in cfg.estimators:
+        rn = cfg.exact.regression if cfg.exact.regression in e.regressions else e.regressions[0]
+        out[e.label] = out[f"{e.label} / {rn}"]
+    return out
 
 
 @contextmanager
 def method_styles(styles: Mapping[str, Style]) -> Iterator[None]:
-    """Draw the figures made inside the block with ``styles`` = {estimator label: Style}, each the
-    registered method's :meth:`~boundid.estimators.method.Method.style_for` its options
-    (:meth:`boundid.studies.config.StudyConfig.styles`)."""
+    """Draw the figures made inside the block with ``styles`` = {estimator label: Style}, e.g. a
+    study's :meth:`~boundid.studies.config.StudyConfig.styles` (one palette entry per estimator
+    and regression model, :data:`SERIES`)."""
     token = _STYLES.set(dict(styles))
     try:
         yield
@@ -55,21 +101,124 @@ def method_styles(styles: Mapping[str, Style]) -> Iterator[None]:
         _STYLES.reset(token)
 
 
-def style_for(label: str) -> Style:
-    """The style of a figure label: that of the estimator label it names (exactly, or followed by
-    " /" or " (": "RLS / filtered_dynamic", "OBE-standard (unverified)"; the longest such label
-    wins) from :func:`method_styles`; a reference of :data:`PALETTE` (named the same way) its colour; any other label a
-    colour by the CRC32 hash of the label, the same in every figure."""
-    for styles in (_STYLES.get() or {}, {k: Style(c, "o") for k, c in PALETTE.items()}):
-        named = [k for k in styles if label == k or label.startswith((k + " /", k + " ("))]
+def _named_style(label: str) -> Style | None:
+    """The style :func:`method_styles` or :data:`REFERENCE_STYLES` give ``label`` (see style_for), or None."""
+    for styles in (_STYLES.get() or {}, REFERENCE_STYLES):
+        named = [k for k in styles if label == k or label.startswith(k + " ")]
         if named:
             return styles[max(named, key=len)]
+    return None
+
+
+def style_for(label: str) -> Style:
+    """The style of a figure label: that of the estimator label it names (exactly, or followed by
+    a space: "RLS / filtered_dynamic", "OBE-standard (unverified)", "WLS 95 %"; the longest such
+    label wins) from :func:`method_styles`; a reference of :data:`REFERENCE_STYLES` (named the same way)
+    its style; any other label a palette colour by the CRC32 hash of the label, the same in every
+    figure. Figures with several series use :func:`series_styles`, which keeps these styles but
+    never gives two series of one figure the same one."""
+    named = _named_style(label)
+    if named is not None:
+        return named
     return Style(_FALLBACK[zlib.crc32(label.encode()) % len(_FALLBACK)], "o")
 
 
 def color_for(label: str) -> str:
     """The colour of :func:`style_for` ``label``."""
     return style_for(label).color
+
+
+def series_styles(labels: Sequence[str]) -> dict[str, Style]:
+    """{label: Style} for the series of one figure, pairwise different in (colour, marker, line style).
+
+    A label named by :func:`method_styles` or :data:`REFERENCE_STYLES` keeps that style (the same in every
+    figure of a report) unless an earlier label of the figure already took it; the others take the
+    palette entries (:func:`series_style`) in order, first those whose colour the figure does not
+    use yet, then those whose triple it does not use.
+    """
+    out: dict[str, Style] = {}
+    pending = []
+    for label in labels:
+        if label in out:
+            continue
+        st = _named_style(label)
+        if st is None or st in out.values():
+            pending.append(label)
+        else:
+            out[label] = st
+    candidates = [series_style(k) for k in range(64)]
+    for label in pending:
+        colours = {s.color for s in out.values()}
+        taken = set(out.values())
+        out[label] = next((s for s in candidates if s.color not in colours),
+                          next((s for s in candidates if s not in taken), candidates[len(out) % 64]))
+    return {label: out[label] for label in dict.fromkeys(labels)}
+
+
+def _line_kw(st: Style, n_points: int, k: int = 0, n_series: int = 1, lw: float = 1.2) -> dict:
+    """plot() keywords drawing a series in ``st``: its colour and line style, and its marker every
+    1/8 of the ``n_points`` (staggered by the series' place ``k`` of ``n_series``), so the marker
+    tells series apart where colours do not."""
+    kw = {"color": st.color, "ls": st.linestyle, "lw": lw}
+    if st.marker and st.marker.lower() != "none":
+        step = max(1, n_points // 8)
+        kw.update(marker=st.marker, ms=4.5, markevery=(min(n_points - 1, step * k // max(n_series, 1)) if n_points
+                                                       else 0, step), mec="white", mew=0.4)
+    return kw
+
+
+def _figure(width: float, height: float) -> Figure:
+    """A constrained-layout figure at :data:`DPI` with an Agg canvas (to measure text before drawing)."""
+    fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _fit_ncols(make, n: int, max_width_px: float, renderer):
+    """The legend made by ``make(ncols)`` with the fewest rows that is at most ``max_width_px`` wide
+    (rows balanced: as few columns as that many rows need); one column if none fits."""
+    for rows in range(1, n + 1):
+        ncols = -(-n // rows)
+        if rows > 1 and ncols == -(-n // (rows - 1)):
+            continue  # the same number of columns as the last try
+        leg = make(ncols)
+        if ncols == 1 or leg.get_window_extent(renderer).width <= max_width_px:
+            return leg
+        leg.remove()
+    raise AssertionError("unreachable: one column is always returned")
+
+
+def _figure_legend(fig: Figure, handles: list, labels: list[str], where: str = "top") -> None:
+    """The legend of ``fig`` outside its axes, at :data:`LEGEND_PT`: on top (``where="top"``) in as
+    many columns as the figure's width holds, the figure made taller by the legend's height so the
+    axes keep theirs; or on the right (``"right"``), the figure made wider by its width (at most
+    :data:`MAX_WIDTH_IN`, then the legend goes on top) and tall enough for it."""
+    if not labels:
+        return
+    renderer = fig.canvas.get_renderer()
+    if where == "right":
+        leg = fig.legend(handles, labels, loc="outside right upper", fontsize=LEGEND_PT, frameon=False)
+        box = leg.get_window_extent(renderer)
+        width = fig.get_figwidth() + box.width / fig.dpi + 0.15
+        if width <= MAX_WIDTH_IN:
+            fig.set_figwidth(width)
+            fig.set_figheight(max(fig.get_figheight(), box.height / fig.dpi + 0.3))
+            return
+        leg.remove()
+    pad = 0.1 * fig.dpi
+    leg = _fit_ncols(lambda c: fig.legend(handles, labels, loc="outside upper center", ncols=c,
+                                          fontsize=LEGEND_PT, frameon=False, columnspacing=1.2),
+                     len(labels), fig.bbox.width - 2 * pad, renderer)
+    fig.set_figheight(fig.get_figheight() + leg.get_window_extent(renderer).height / fig.dpi + 0.1)
+
+
+def _unique_handles(axes) -> tuple[list, list[str]]:
+    """The legend entries of several axes, each label once, in order of first appearance."""
+    handles: dict = {}
+    for ax in axes:
+        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
+            handles.setdefault(lab, h)
+    return list(handles.values()), list(handles)
 
 
 def _grid(n: int, max_cols: int = 3) -> tuple[int, int]:
@@ -80,7 +229,7 @@ def _grid(n: int, max_cols: int = 3) -> tuple[int, int]:
 def _panel_figure(n: int, max_cols: int = 3, sharex: bool = True) -> tuple[Figure, list]:
     """A constrained-layout figure with exactly ``n`` axes in a grid (unused grid cells removed)."""
     nrows, ncols = _grid(n, max_cols)
-    fig = Figure(figsize=(_AX_W * ncols, _AX_H * nrows + 0.4), dpi=DPI, layout="constrained")
+    fig = _figure(_AX_W * ncols, _AX_H * nrows + 0.2)
     axes = fig.subplots(nrows, ncols, sharex=sharex, squeeze=False).ravel()
     for ax in axes[n:]:
         fig.delaxes(ax)
@@ -176,15 +325,17 @@ def parameter_convergence(
     if len(names) != p or (truth is not None and truth.shape != (p,)):
         raise InputError(f"names and truth must have p = {p} entries.")
     fig, axes = _panel_figure(p)
-    for label, (index, centers) in traces.items():
+    styles = series_styles(list(traces) + (["truth"] if truth is not None else []))
+    for k, (label, (index, centers)) in enumerate(traces.items()):
         s = _stride(index.shape[0], max_points)
         x = _x_axis(t, index)[s]
+        kw = _line_kw(styles[label], x.shape[0], k, len(traces))
         for j, ax in enumerate(axes):
-            ax.plot(x, centers[s, j], color=color_for(label), lw=1.2, label=label)
+            ax.plot(x, centers[s, j], label=label, **kw)
     for j, ax in enumerate(axes):
         tails = [c[int(transient * c.shape[0]) :, j] for _, c in traces.values()]
         if truth is not None:
-            ax.axhline(truth[j], color=PALETTE["truth"], ls="--", lw=1.0, label="truth")
+            ax.axhline(truth[j], color=styles["truth"].color, ls=styles["truth"].linestyle, lw=1.0, label="truth")
             tails.append(truth[j : j + 1])
         limits = _robust_limits(tails)
         if limits is not None:
@@ -194,8 +345,7 @@ def parameter_convergence(
     for ax in axes[-_grid(p)[1] :]:
         ax.set_xlabel("time [s]" if t is not None else "sample")
         ax.xaxis.set_tick_params(labelbottom=True)
-    handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside upper center", ncols=min(len(labels), 5), frameon=False)
+    _figure_legend(fig, *axes[0].get_legend_handles_labels())
     return fig
 
 
@@ -241,17 +391,19 @@ def torque_bounds(
             raise InputError(f"band {label!r} must have shape {meas.shape}.")
     n = meas.shape[1]
     names = list(joint_names) if joint_names is not None else [f"joint {i + 1}" for i in range(n)]
-    fig = Figure(figsize=(7.0, 2.0 * n + 0.5), dpi=DPI, layout="constrained")
+    fig = _figure(7.0, 2.0 * n + 0.3)
     axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
     s = _stride(N, max_points)
-    band_color = color_for(band_label)
+    styles = series_styles([band_label, *extra, "measured"])
+    band_color = styles[band_label].color
     for i, ax in enumerate(axes):
         ax.fill_between(t[s], lo[s, i], hi[s, i], color=band_color, alpha=0.3, lw=0, label=band_label)
-        for label, (a, b) in extra.items():
-            col = color_for(label)
-            ax.plot(t[s], a[s, i], color=col, lw=0.9, ls="--", label=label)
-            ax.plot(t[s], b[s, i], color=col, lw=0.9, ls="--")
-        ax.plot(t[s], meas[s, i], color=PALETTE["measured"], lw=0.7, label="measured")
+        for k, (label, (a, b)) in enumerate(extra.items()):
+            kw = _line_kw(styles[label], t[s].shape[0], k, len(extra), lw=0.9)
+            ax.plot(t[s], a[s, i], label=label, **kw)
+            ax.plot(t[s], b[s, i], **kw)
+        ax.plot(t[s], meas[s, i], color=styles["measured"].color, ls=styles["measured"].linestyle, lw=0.7,
+                label="measured")
         out = (meas[:, i] < lo[:, i]) | (meas[:, i] > hi[:, i])
         if out.any():
             ax.plot(t[out], meas[out, i], "x", color="#D00000", ms=4, label="outside bounds")
@@ -260,13 +412,7 @@ def torque_bounds(
         ax.set_ylabel(_label("torque", unit))
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time [s]")
-    handles = {}
-    for ax in axes:
-        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
-            handles.setdefault(lab, h)
-    labels = list(handles)
-    fig.legend([handles[k] for k in labels], labels, loc="outside upper center", ncols=min(len(labels), 3),
-               frameon=False)
+    _figure_legend(fig, *_unique_handles(axes))
     return fig
 
 
@@ -294,23 +440,25 @@ def trajectory_comparison(
             raise InputError(f"q_resimulated[{label!r}] has shape {q.shape}, q_measured {qm.shape}.")
     n = qm.shape[1]
     names = list(joint_names) if joint_names is not None else [f"joint {i + 1}" for i in range(n)]
-    fig = Figure(figsize=(8.0, 2.0 * n + 0.5), dpi=DPI, layout="constrained")
+    fig = _figure(8.0, 2.0 * n + 0.3)
     axes = fig.subplots(n, 2, sharex=True, squeeze=False)
+    styles = series_styles(["measured", *sims])
+    measured = styles["measured"]
     for i in range(n):
         ax, ax_err = axes[i]
-        ax.plot(t, qm[:, i], color=PALETTE["measured"], lw=1.6, label="measured")
-        ax_err.axhline(0.0, color=PALETTE["measured"], lw=0.8)
-        for label, q in sims.items():
-            ax.plot(t, q[:, i], color=color_for(label), lw=1.0, ls="--", label=label)
-            ax_err.plot(t, q[:, i] - qm[:, i], color=color_for(label), lw=1.0, label=label)
+        ax.plot(t, qm[:, i], color=measured.color, ls=measured.linestyle, lw=1.8, label="measured")
+        ax_err.axhline(0.0, color=measured.color, lw=0.8)
+        for k, (label, q) in enumerate(sims.items()):
+            kw = _line_kw(styles[label], N, k, len(sims), lw=1.1)
+            ax.plot(t, q[:, i], label=label, **kw)
+            ax_err.plot(t, q[:, i] - qm[:, i], label=label, **kw)
         ax.set_ylabel(_label(f"q {names[i]}", unit))
         ax_err.set_ylabel(_label("re-sim - measured", unit))
         for a in (ax, ax_err):
             a.grid(alpha=0.3)
     for a in axes[-1]:
         a.set_xlabel("time [s]")
-    handles, labels = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside upper center", ncols=min(len(labels), 5), frameon=False)
+    _figure_legend(fig, *axes[0, 0].get_legend_handles_labels())
     return fig
 
 
@@ -344,7 +492,7 @@ def projection_2d(
     box would shrink everything else to a dot): these run past the frame, and their legend entry
     says so. Equal aspect where both parameters have the same unit and comparable spans (within 4:1).
     """
-    fig = Figure(figsize=(6.0, 4.0), dpi=DPI, layout="constrained")
+    fig = _figure(5.2, 4.0)
     ax = fig.subplots()
     for label, S in {"polytope": polytope, **sets}.items():
         if S is not None and S.dim != 2:
@@ -356,25 +504,30 @@ def projection_2d(
         lo, hi = (np.asarray(b, dtype=float) for b in box)
         if lo.shape != (2,) or hi.shape != (2,) or np.any(hi < lo):
             raise InputError("box must be (lo (2,), hi (2,)) with lo <= hi.")
-        ax.add_patch(Rectangle(tuple(lo), *(hi - lo), fill=False, ls="--", lw=1.0,
-                               edgecolor=PALETTE["LP exact"], label="LP exact bounds"))
+        ax.add_patch(Rectangle(tuple(lo), *(hi - lo), fill=False, ls=REFERENCE_STYLES["LP exact"].linestyle, lw=1.0,
+                               edgecolor=REFERENCE_STYLES["LP exact"].color, label="LP exact bounds"))
     reference = ([polytope.boundary()] if polytope is not None else []) + ([np.array([lo, hi])] if box is not None
                                                                           else [])
     ref_span = np.ptp(np.vstack(reference), axis=0) if reference else None
     boundaries = {label: S.boundary(240) for label, S in sets.items()}
     too_wide = {label for label, b in boundaries.items() if ref_span is not None and np.all(ref_span > 0)
                 and np.any(np.ptp(b, axis=0) > FRAME_SPAN * ref_span)}
+    styles = series_styles(list(boundaries) + (["truth"] if truth_2d is not None else []))
     for label, b in boundaries.items():
-        st = style_for(label)
-        ax.plot(b[:, 0], b[:, 1], color=st.color, ls=st.linestyle, lw=1.4,
-                label=label + (" (off frame)" if label in too_wide else ""))
-        if centers is not None and label in centers:
-            ax.plot(*np.asarray(centers[label], dtype=float), st.marker, color=st.color, ms=3)
+        st = styles[label]
+        has_center = centers is not None and label in centers
+        ax.plot(b[:, 0], b[:, 1], color=st.color, ls=st.linestyle, lw=1.4, label="_" if has_center else
+                label + (" (off frame)" if label in too_wide else ""))
+        if has_center:  # the centre shows the marker; the legend entry both
+            c = np.asarray(centers[label], dtype=float)
+            ax.plot(*c, st.marker, color=st.color, ms=4.5, mec="white", mew=0.4)
+            ax.plot([], [], color=st.color, ls=st.linestyle, lw=1.4, marker=st.marker, ms=4.5, mec="white",
+                    mew=0.4, label=label + (" (off frame)" if label in too_wide else ""))
     if truth_2d is not None:
         tr = np.asarray(truth_2d, dtype=float)
         if tr.shape != (2,):
             raise InputError(f"truth_2d must be (2,), got shape {tr.shape}.")
-        ax.plot(*tr, "*", color=PALETTE["truth"], ms=10, label="truth")
+        ax.plot(*tr, styles["truth"].marker, color=styles["truth"].color, ms=10, label="truth")
     framed = [b for label, b in boundaries.items() if not _frame_exempt(label) and label not in too_wide]
     framed += reference
     framed += [np.asarray(truth_2d, dtype=float)[None, :]] if truth_2d is not None else []
@@ -393,11 +546,8 @@ def projection_2d(
     ax.set_xlabel(_label(names[0], units[0] if units is not None else None))
     ax.set_ylabel(_label(names[1], units[1] if units is not None else None))
     ax.grid(alpha=0.3)
-    fig.legend(loc="outside right upper", fontsize=8, frameon=False)
+    _figure_legend(fig, *ax.get_legend_handles_labels(), where="right")
     return fig
-
-
-_MARKERS = ("o", "s", "D", "^", "v", "P", "X", "<", ">", "h")
 
 
 def _frame_exempt(label: str) -> bool:
@@ -422,22 +572,26 @@ def width_ratios(widths, reference: str = "LP exact") -> Figure:
     if not others:
         raise InputError("width_ratios needs at least one estimate column besides the reference.")
     p = len(widths.index)
-    fig = Figure(figsize=(8.5, 0.32 * p + 1.6), dpi=DPI, layout="constrained")
+    fig = _figure(8.5, 0.32 * p + 1.3)
     ax = fig.subplots()
+    styles = series_styles(others)
     y = np.arange(p)
     offset = np.linspace(-0.25, 0.25, len(others)) if len(others) > 1 else np.zeros(1)
     ratios = []
     for k, label in enumerate(others):
         ratio = widths[label].to_numpy(dtype=float) / ref
         ratios.append(ratio)
-        ax.plot(ratio, y + offset[k], ls="none", marker=_MARKERS[k % len(_MARKERS)], ms=6, color=color_for(label),
+        ax.plot(ratio, y + offset[k], ls="none", marker=styles[label].marker, ms=6, color=styles[label].color,
                 markeredgecolor="white", markeredgewidth=0.5, label=label)
-    ax.axvline(1.0, color=PALETTE["LP exact"], lw=1.0, ls="--", label=f"{reference} (= 1)")
+    ref = style_for(reference) if _named_style(reference) is not None else REFERENCE_STYLES["LP exact"]
+    ax.axvline(1.0, color=ref.color, lw=1.0, ls=ref.linestyle, label=f"{reference} (= 1)")
     ax.set_xscale("log")
     finite = np.concatenate(ratios)
     finite = finite[np.isfinite(finite) & (finite > 0)]
     lo, hi = (min(0.8, finite.min() / 1.3), max(1.25, finite.max() * 1.3)) if finite.size else (0.5, 2.0)
     ax.set_xlim(lo, hi)
+    decades = np.log10(hi / lo)  # label 1-2-5 within a few decades (else only the 1 of each is labelled)
+    ax.xaxis.set_major_locator(LogLocator(10.0, subs=(1.0, 2.0, 5.0) if decades <= 3 else (1.0,)))
     ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
     ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_yticks(y, [str(i) for i in widths.index])
@@ -446,7 +600,7 @@ def width_ratios(widths, reference: str = "LP exact") -> Figure:
     ax.set_xlabel(f"width / {reference} width (log scale)", fontsize=10)
     ax.grid(axis="x", which="both", alpha=0.3)
     ax.grid(axis="y", alpha=0.15)
-    fig.legend(loc="outside upper center", fontsize=9, ncols=min(len(others) + 1, 4), frameon=False)
+    _figure_legend(fig, *ax.get_legend_handles_labels())
     return fig
 
 
@@ -459,11 +613,12 @@ def log_volume_bars(log_volumes_per_dim: Mapping[str, float]) -> Figure:
     if not items:
         raise InputError("log_volume_bars needs at least one finite log-volume.")
     labels, values = zip(*items, strict=True)
-    fig = Figure(figsize=(5.5, 0.45 * len(items) + 1.0), dpi=DPI, layout="constrained")
+    fig = _figure(5.5, 0.45 * len(items) + 1.0)
     ax = fig.subplots()
     y = np.arange(len(items))
-    bars = ax.barh(y, values, color=[color_for(k) for k in labels])
-    ax.bar_label(bars, labels=[f"{v:.3g}" for v in values], fontsize=7, padding=2)
+    styles = series_styles(labels)
+    bars = ax.barh(y, values, color=[styles[k].color for k in labels])
+    ax.bar_label(bars, labels=[f"{v:.3g}" for v in values], fontsize=9, padding=2)
     ax.set_yticks(y, labels)
     ax.invert_yaxis()
     ax.axvline(0.0, color="#333333", lw=0.8)
@@ -481,24 +636,27 @@ def volume_history(histories: Mapping[str, object], t=None, *, max_points: int =
     t : (N,) [s] or None, as in :func:`parameter_convergence`.
     max_points : longer traces are drawn with every k-th recorded point only.
     """
-    fig = Figure(figsize=(5.5, 3.2), dpi=DPI, layout="constrained")
+    fig = _figure(6.5, 3.0)
     ax = fig.subplots()
-    drawn = 0
+    traces = {}
     for label, h in histories.items():
         index, logv = _trace(h, "log_volumes")
         if logv.shape != index.shape:
             raise InputError(f"history {label!r}: index {index.shape} and log_volumes {logv.shape} differ.")
-        if np.all(np.isnan(logv)):
-            continue
+        if not np.all(np.isnan(logv)):
+            traces[label] = (index, logv)
+    styles = series_styles(list(traces))
+    for k, (label, (index, logv)) in enumerate(traces.items()):
         s = _stride(index.shape[0], max_points)
-        ax.plot(_x_axis(t, index)[s], logv[s], color=color_for(label), lw=1.3, label=label)
-        drawn += 1
+        x = _x_axis(t, index)[s]
+        ax.plot(x, logv[s], label=label, **_line_kw(styles[label], x.shape[0], k, len(traces), lw=1.3))
+    drawn = len(traces)
     if drawn == 0:
         raise InputError("volume_history needs at least one history with finite log-volumes.")
     ax.set_xlabel("time [s]" if t is not None else "sample")
     ax.set_ylabel("ln(volume)")
     ax.grid(alpha=0.3)
-    fig.legend(loc="outside upper center", fontsize=8, ncols=min(drawn, 4), frameon=False)
+    _figure_legend(fig, *ax.get_legend_handles_labels())
     return fig
 
 
@@ -509,22 +667,27 @@ def bound_sweep(rows: list[dict]) -> Figure:
     if not rows:
         raise InputError("bound_sweep needs at least one row.")
     f = np.array([r["factor"] for r in rows])
-    fig = Figure(figsize=(9.0, 3.4), dpi=DPI, layout="constrained")
+    fig = _figure(9.0, 3.4)
     left, right = fig.subplots(1, 2)
     for key, ls, marker, color in (("mean width / prior", "-", "o", PALETTE["LP exact"]),
-                                   ("median width / prior", "--", "s", "#888888")):
+                                   ("median width / prior", "--", "s", "#777777")):
         left.semilogx(f, [r[key] for r in rows], ls=ls, marker=marker, color=color, label=key)
     left.set_ylabel("exact interval width / prior box width")
     left.set_ylim(bottom=0.0)
-    left.legend(fontsize=8)
-    refs = [k for k in rows[0] if k.startswith("rows ")]
-    for i, key in enumerate(refs):
-        label = key.removeprefix("rows ").removesuffix(" violates")
-        right.semilogx(f, [r[key] for r in rows], marker="os^"[i % 3], color=color_for(label), label=label)
+    refs = {k.removeprefix("rows ").removesuffix(" violates"): k for k in rows[0] if k.startswith("rows ")}
+    styles = series_styles(list(refs))
+    for label, key in refs.items():
+        st = styles[label]
+        right.semilogx(f, [r[key] for r in rows], marker=st.marker, ls=st.linestyle, color=st.color, label=label)
     right.set_ylabel("rows outside their bound")
     right.set_ylim(bottom=0.0)
-    if refs:
-        right.legend(fontsize=8, title="point", title_fontsize=8)
+    renderer = fig.canvas.get_renderer()
+    for ax, title in ((left, None), (right, "point")):  # above each axes, in as many columns as it holds
+        handles, labels = ax.get_legend_handles_labels()
+        if labels:
+            _fit_ncols(lambda c, ax=ax, h=handles, lab=labels, ti=title: ax.legend(
+                h, lab, loc="lower center", bbox_to_anchor=(0.5, 1.02), ncols=c, fontsize=LEGEND_PT, frameon=False,
+                title=ti, title_fontsize=LEGEND_PT), len(labels), ax.bbox.width, renderer)
     for ax in (left, right):
         ax.set_xlabel("e_max / smallest consistent bound")
         ax.set_xticks(f, [f"{v:g}" for v in f], minor=False)
