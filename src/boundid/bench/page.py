@@ -4,12 +4,15 @@
 (the machine it ran on, see :func:`boundid.bench.goals.machine`) for every topic it finds in the
 folder, judges the module's ``GOAL_CHECKS`` on them and writes one self-contained page: a summary
 of the verdicts, one table of every goal (measured value, target, the case's size, the load when it
-ran, the verdict), and per topic its description, machine and full table (folded). Nothing is
-measured here: ``python -m boundid.bench --page-only`` rebuilds the page from the files.
+ran, the verdict), and per topic its description (Markdown, :func:`markdown_html`), machine and
+full table (folded); then every other Markdown report in the folder (``mutation.md``,
+``platforms.md``), rendered. No link names a folder (:func:`local_href`). Nothing is measured
+here: ``python -m boundid.bench --page-only`` rebuilds the page from the files.
 """
 
 from __future__ import annotations
 
+import functools
 import html
 import importlib
 import json
@@ -19,6 +22,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import pandas as pd
+from markdown_it import MarkdownIt
 
 from boundid.bench.goals import Goal, Verdict, judge
 from boundid.report.html import Page, render_page, site_header
@@ -95,23 +99,71 @@ def _machine_text(meta: Mapping | None, topic: str) -> str:
                        f"{v.get('python', '?')}, {libs}.")
 
 
-def _text_html(text: str) -> str:
-    """A benchmark's GOALS text as HTML: blank lines separate blocks; a block of "- " or "* "
-    lines is a list (indented lines continue an item), any other block a paragraph."""
-    out = []
-    for block in re.split(r"\n\s*\n", text.strip()):
-        lines = block.splitlines()
-        if lines and re.match(r"\s*[-*] ", lines[0]):
-            items = []
-            for line in lines:
-                if re.match(r"\s*[-*] ", line):
-                    items.append(re.sub(r"^\s*[-*] ", "", line))
-                else:
-                    items[-1] += " " + line.strip()
-            out.append("<ul>" + "".join(f"<li>{html.escape(' '.join(i.split()))}</li>" for i in items) + "</ul>")
-        else:
-            out.append(f"<p>{html.escape(' '.join(block.split()))}</p>")
-    return "".join(out)
+_ROLE = re.compile(r":(?:py:)?(?:func|meth|class|mod|attr|data|obj|exc|const|ref|doc):`~?([^`]+)`")
+_EXTERNAL = re.compile(r"^([a-z][a-z0-9+.-]*:|//|#)", re.I)  # a scheme (https:, mailto:), //host or #anchor
+
+
+@functools.cache
+def _markdown() -> MarkdownIt:
+    """CommonMark with tables; raw HTML in the text is shown as text, never passed through."""
+    return MarkdownIt("commonmark", {"html": False}).enable(["table", "strikethrough"])
+
+
+def local_href(href: str, folder: Path | None) -> str | None:
+    """The link ``href`` of a page in ``folder`` as it should be written, or None when it must not be
+    a link: a folder (an href ending in "/", or naming a folder beside the page) opens as a page only
+    through its index.html, so it becomes ``<folder>/index.html`` when there is one and None when
+    there is not (a static site shows a folder link as nothing useful). Other hrefs are kept."""
+    if not href or _EXTERNAL.match(href):
+        return href
+    path = re.split(r"[?#]", href, maxsplit=1)[0]
+    is_dir = path.endswith("/") or (folder is not None and path not in ("", ".") and (folder / path).is_dir())
+    if path in ("", "."):
+        return href
+    if not is_dir:
+        return href
+    index = path.rstrip("/") + "/index.html"
+    return index if folder is not None and (folder / index).is_file() else None
+
+
+def markdown_html(text: str, folder: Path | None = None, *, shift: int = 0) -> str:
+    """Markdown text (a benchmark's GOALS, a report's .md) as HTML in the page's style.
+
+    CommonMark with tables (markdown-it-py): inline code, bold, italics, links, lists, headings,
+    tables. A reST role (``:func:`name```, ``:class:``, ...) is shown as the code ``name``; headings
+    go ``shift`` levels down (h1 -> h(1 + shift), at most h6); tables get the report's style; a link
+    to a folder is rewritten by :func:`local_href` (its index.html, or plain text when it has none).
+    """
+    md = _markdown()
+    tokens = md.parse(_ROLE.sub(lambda m: f"`{m.group(1)}`", text))
+    for tok in tokens:
+        if tok.type in ("heading_open", "heading_close"):
+            tok.tag = f"h{min(6, int(tok.tag[1:]) + shift)}"
+        elif tok.type == "table_open":
+            tok.attrSet("class", "data")
+        if tok.children:
+            kept, dropping = [], False
+            for child in tok.children:
+                if child.type == "link_open":
+                    href = local_href(str(child.attrGet("href") or ""), folder)
+                    dropping = href is None
+                    if dropping:
+                        continue
+                    child.attrSet("href", href)
+                elif child.type == "link_close" and dropping:
+                    dropping = False
+                    continue
+                kept.append(child)
+            tok.children = kept
+    out = md.renderer.render(tokens, md.options, {})
+    return out.replace('<table class="data">', '<div class="scroll"><table class="data">').replace(
+        "</table>", "</table></div>")
+
+
+def _title_and_body(text: str) -> tuple[str, str]:
+    """A Markdown report's first-level heading (its title) and the text after it."""
+    m = re.match(r"\s*#\s+(.+?)\s*#*\s*\n", text + "\n")
+    return (m.group(1), text[m.end():]) if m else ("", text)
 
 
 def verdict_row(topic: str, v: Verdict) -> list[tuple[str, str]]:
@@ -183,10 +235,20 @@ def write_page(out: str | Path, goals: Mapping[str, Sequence[Goal]] | None = Non
             f"<p><b>{html.escape(n_goals)}.</b> Files: <a href=\"{html.escape(topic)}.csv\">CSV</a> · "
             f"<a href=\"{html.escape(topic)}.md\">Markdown</a></p>"
             f'<p class="machine">{_machine_text(meta, topic)}</p>'
-            + (f'<div class="goals">{_text_html(text)}</div>' if text.strip() else "")
+            + (f'<div class="goals">{markdown_html(text, out, shift=2)}</div>' if text.strip() else "")
             + f'<details class="raw"><summary>All {len(df)} rows of {html.escape(topic)}.csv ("{NOT_MEASURED}": '
               "the case has no such value, e.g. no reference ran for it)</summary>"
               f"{raw}</details></section>")
+    reports = []  # the Markdown reports beside the page that no benchmark module writes (e.g. mutation.md)
+    for md_file in sorted(out.glob("*.md")):
+        if md_file.stem in topics:
+            continue
+        title, text = _title_and_body(md_file.read_text(encoding="utf-8"))
+        reports.append(md_file.stem)
+        sections.append(
+            f'<section id="{html.escape(md_file.stem)}"><h2>{html.escape(title or md_file.stem)}</h2>'
+            f'<p>File: <a href="{html.escape(md_file.name)}">{html.escape(md_file.name)}</a> (Markdown; '
+            f"shown here as written).</p>{markdown_html(text, out, shift=1)}</section>")
     total = sum(counts.values())
     summary = ", ".join(f"{n} {s}" for s, n in counts.items() if n)
     lead = (f"<p><b>{total} goals: {html.escape(summary)}.</b></p>" if total else "<p>No goals found.</p>")
@@ -196,11 +258,12 @@ def write_page(out: str | Path, goals: Mapping[str, Sequence[Goal]] | None = Non
              "ran (or, if the benchmark did not record it, when the benchmark started); the machine's cores are "
              "named under each benchmark.</p>")
     nav = ('<nav><a href="#goals">Goals</a>'
-           + "".join(f'<a href="#{html.escape(t)}">{html.escape(t)}</a>' for t in topics) + "</nav>")
+           + "".join(f'<a href="#{html.escape(t)}">{html.escape(t)}</a>' for t in topics + reports) + "</nav>")
     goals_table = _table(["goal", "verdict", "measured", "target", "case", "load"], all_rows)
     body = (nav + f'<div class="keypoints">{lead}</div>'
             + f'<section id="goals"><h2>Goals</h2>{goals_table}</section>' + "".join(sections))
-    header = site_header("boundid benchmarks", "../index.html", files=[(f"{t}.csv", f"{t}.csv") for t in topics])
+    header = site_header("boundid benchmarks", "../index.html", files=[(f"{t}.csv", f"{t}.csv") for t in topics]
+                         + [(f"{r}.md", f"{r}.md") for r in reports])
     page = render_page("boundid benchmarks", body, description=f"boundid benchmarks: {total} goals, {summary}.",
                        header=header, css=Page.css + _CSS, note=" from the CSV files beside this page")
     path = out / "index.html"

@@ -7,7 +7,7 @@ It runs every estimator of the study in *campaign mode*: no SDP ellipsoids and n
 experiment (the exact LP bounds stay: they are the reference widths), and writes one tidy row per
 estimator x regression x parameter (the columns of :func:`boundid.studies.runner.tidy_table` plus
 ``scenario, replicate, config_hash, time_s, replicate_time_s, bound_ratio, truth_error_ratio,
-failure``) to one Parquet file::
+exact_bound, failure``) to one Parquet file::
 
     <out>/data/<scenario>__<config hash>__r<replicate>.parquet
 
@@ -63,6 +63,7 @@ from boundid.studies.runner import build_regressions, exact_optima, run_estimato
 from boundid.studies.scenarios import Scenario
 
 DATA_DIR = "data"
+EXACT_LABEL = "LP exact"  # the estimator label of the exact LP bounds in the replicate rows
 
 
 def campaign_config(cfg: StudyConfig, scenario: Scenario) -> StudyConfig:
@@ -119,6 +120,7 @@ def replicate_rows(cfg: StudyConfig, scenario: Scenario, replicate: int) -> pd.D
     bound_ratio (guaranteed estimators): max_k |y_k - w_k^T theta_true| / e_max on the estimator's
     own regression -- <= 1 means the errors respect the bound, so the set must contain the truth.
     truth_error_ratio: the same on the exact optima's regression with its e_max.
+    exact_bound: that e_max in words ("6 N m", :meth:`boundid.studies.runner.ExactResult.bound_text`).
     Failed estimators (any of :data:`boundid.errors.RUN_FAILURES`) get rows with NaN values, kind
     "failed" and the reason; so do the exact LP bounds ("LP exact") when their computation fails.
     """
@@ -150,12 +152,12 @@ def replicate_rows(cfg: StudyConfig, scenario: Scenario, replicate: int) -> pd.D
         try:
             exact = exact_optima(ccfg, regressions[ccfg.exact.regression], model, {}, QUIET)
         except RUN_FAILURES as exc:
-            failures.append(("LP exact", "LP", ccfg.exact.regression, f"{type(exc).__name__}: {exc}"))
+            failures.append((EXACT_LABEL, "LP", ccfg.exact.regression, f"{type(exc).__name__}: {exc}"))
         else:  # data that contradict the bound are a finding (no LP rows), a failed LP is a failure
             lp_failure = exact.errors.get("consistency") or (exact.errors.get("bounds") if exact.consistent else None)
             if lp_failure:
-                failures.append(("LP exact", "LP", ccfg.exact.regression, lp_failure))
-            extra[("LP exact", ccfg.exact.regression)] = (time.perf_counter() - t0, np.nan, None)
+                failures.append((EXACT_LABEL, "LP", ccfg.exact.regression, lp_failure))
+            extra[(EXACT_LABEL, ccfg.exact.regression)] = (time.perf_counter() - t0, np.nan, None)
     table = tidy_table(ccfg, model, estimates, exact)
     for label, method, regname, reason in failures:
         extra[(label, regname)] = (np.nan, np.nan, reason)
@@ -176,6 +178,7 @@ def replicate_rows(cfg: StudyConfig, scenario: Scenario, replicate: int) -> pd.D
     table.insert(2, "replicate", int(replicate))
     table["config_hash"] = config_hash(ccfg)
     table["truth_error_ratio"] = exact.truth_error_ratio if exact is not None else np.nan
+    table["exact_bound"] = pd.Series([exact.bound_text() if exact is not None else None] * len(table), dtype="string")
     table["replicate_time_s"] = time.perf_counter() - t_start
     return table
 
@@ -452,7 +455,16 @@ def summarize(table: pd.DataFrame) -> pd.DataFrame:
 
     coverage_pct : % of (replicate, parameter) intervals lo <= truth <= hi
     coverage_bound_held_pct : the same over the replicates whose errors respect the estimator's
-        bound (bound_ratio <= 1; guaranteed sets only): must be 100
+        bound (bound_ratio <= 1; guaranteed sets; for "LP exact" truth_error_ratio <= 1): must be 100
+    contains_truth_pct : % of the completed replicates whose set (guaranteed, confidence, or the exact
+        polytope) contains the whole true vector (``truth_in_set``); NaN without a set (a point estimate)
+    contains_truth_bound_held_pct : the same over the replicates whose errors respect the estimator's
+        bound (guaranteed sets and "LP exact"): must be 100
+    bound_held_replicates : completed replicates whose errors respect the estimator's bound (the same)
+    empty_replicates : "LP exact" only: replicates whose data contradict the exact bound, so that the
+        feasible polytope is empty (no LP rows; the exact stage ran: ``truth_error_ratio`` is finite).
+        They count among its replicates, as sets that do not contain the truth (contains_truth_pct);
+        a scenario where every replicate is empty gets an "LP exact" row of its own
     width_ratio_median : median over replicates and parameters of (hi - lo) / exact LP width
     bias_rel_pct, rmse_rel_pct : mean over parameters of |mean(center - truth)| / |truth| and
         sqrt(mean((center - truth)^2)) / |truth| (parameters with truth 0 left out), in %
@@ -463,26 +475,49 @@ def summarize(table: pd.DataFrame) -> pd.DataFrame:
     t = _with_exact_width(table)
     t = t.assign(covered=(t["lo"] <= t["truth"]) & (t["truth"] <= t["hi"]), err=t["center"] - t["truth"],
                  width_ratio=(t["hi"] - t["lo"]) / t["exact_width"])
+    lp = t[t["estimator"] == EXACT_LABEL]
+    ran = t[np.isfinite(t["truth_error_ratio"].astype(float))] if "truth_error_ratio" in t else t.iloc[:0]
+    empty = {sc: set(g["replicate"]) - set(lp.loc[lp["scenario"] == sc, "replicate"])
+             for sc, g in ran.groupby("scenario", sort=False)}
     rows = []
     for (sc, lab, reg), g in t.groupby(["scenario", "estimator", "regression"], sort=False):
         ok = g[g["kind"] != "failed"]
-        held = ok[ok["bound_ratio"] <= 1.0]
+        held = ok[ok["truth_error_ratio" if lab == EXACT_LABEL else "bound_ratio"] <= 1.0]
+        in_set = ok.drop_duplicates("replicate")["truth_in_set"].astype("boolean")
+        in_set_held = held.drop_duplicates("replicate")["truth_in_set"].astype("boolean")
         per = ok.groupby("parameter", sort=False).agg(bias=("err", "mean"), mse=("err", lambda e: np.mean(e ** 2)),
                                                       truth=("truth", "first"))
         nz = per[per["truth"] != 0]
         kind = ok["kind"].iloc[0] if len(ok) else "failed"
+        bounded = kind in ("guaranteed", "exact")
+        n_empty = len(empty.get(sc, ())) if lab == EXACT_LABEL else 0
         rows.append({
             "scenario": sc, "estimator": lab, "regression": reg, "kind": kind,
             "level": ok["level"].iloc[0] if len(ok) else np.nan,
-            "replicates": g["replicate"].nunique(), "failed": g.loc[g["kind"] == "failed", "replicate"].nunique(),
+            "replicates": g["replicate"].nunique() + n_empty,
+            "failed": g.loc[g["kind"] == "failed", "replicate"].nunique(),
             "coverage_pct": 100.0 * ok["covered"].mean() if len(ok) else np.nan,
-            "bound_held_replicates": held["replicate"].nunique() if kind == "guaranteed" else np.nan,
-            "coverage_bound_held_pct": 100.0 * held["covered"].mean() if kind == "guaranteed" and len(held) else np.nan,
+            "bound_held_replicates": held["replicate"].nunique() if bounded else np.nan,
+            "coverage_bound_held_pct": 100.0 * held["covered"].mean() if bounded and len(held) else np.nan,
+            "contains_truth_pct": (100.0 * float(in_set.sum()) / (int(in_set.notna().sum()) + n_empty)
+                                   if in_set.notna().any() or n_empty else np.nan),
+            "contains_truth_bound_held_pct": (100.0 * float(in_set_held.mean()) if bounded
+                                              and in_set_held.notna().any() else np.nan),
             "width_ratio_median": float(np.nanmedian(ok["width_ratio"])) if ok["width_ratio"].notna().any() else np.nan,
             "bias_rel_pct": 100.0 * float(np.mean(np.abs(nz["bias"]) / np.abs(nz["truth"]))) if len(nz) else np.nan,
             "rmse_rel_pct": 100.0 * float(np.mean(np.sqrt(nz["mse"]) / np.abs(nz["truth"]))) if len(nz) else np.nan,
             "time_s": float(ok.drop_duplicates("replicate")["time_s"].mean()) if len(ok) else np.nan,
+            "empty_replicates": n_empty if lab == EXACT_LABEL else np.nan,
         })
+    reg = lp["regression"].iloc[0] if len(lp) else "exact"
+    for sc, reps in empty.items():
+        if reps and not ((lp["scenario"] == sc).any()):  # every replicate empty: no row of LP exact at all
+            rows.append({"scenario": sc, "estimator": EXACT_LABEL, "regression": reg, "kind": "exact",
+                         "level": np.nan, "replicates": len(reps), "failed": 0, "coverage_pct": np.nan,
+                         "bound_held_replicates": 0, "coverage_bound_held_pct": np.nan,
+                         "contains_truth_pct": 0.0, "contains_truth_bound_held_pct": np.nan,
+                         "width_ratio_median": np.nan, "bias_rel_pct": np.nan, "rmse_rel_pct": np.nan,
+                         "time_s": np.nan, "empty_replicates": len(reps)})
     return pd.DataFrame(rows)
 
 
