@@ -528,7 +528,8 @@ def test_killed_write_leaves_the_previous_page_whole(tmp_path):
     assert (half / "results.csv").is_file() and not (half / "index.html").exists()
     assert _cli(["run", study, "--out", str(out), "--quiet", "--seed", "11"]) == 0
     after = _tree(out / "dd")
-    assert sorted(p.name for p in out.iterdir()) == ["dd", "index.html"]  # the study and the site index
+    # the study, the site index and the site's glossary and references pages
+    assert sorted(p.name for p in out.iterdir()) == ["dd", "glossary.html", "index.html", "references.html"]
     assert after["campaign/data/r0.parquet"] == b"replicate"
     assert after["index.html"] != before["index.html"] and after["results.csv"] != before["results.csv"]
 

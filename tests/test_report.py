@@ -470,7 +470,8 @@ def test_the_same_figure_gives_the_same_svg_file():
 
 def test_prose_columns_are_left_aligned_and_wrapped():
     """A column with a sentence in it is marked prose (left-aligned, wrapped), so that the short values
-    beside it stay in view; numeric columns are not."""
+    beside it stay in view; a column of short words (the keyed label column here) is left-aligned as
+    "words"; numeric columns are neither."""
     from boundid.report.html import PROSE_CHARS, Page
 
     page = Page("t")
@@ -481,7 +482,7 @@ def test_prose_columns_are_left_aligned_and_wrapped():
     html = page.to_html()
     table = html[html.index('id="tab-setup"'):]
     assert table.count('<td class="prose">') == 2 and table.count('<th class="prose">') == 1
-    assert "<td>a</td>" in table and "<td>1</td>" in table
+    assert '<td class="words">a</td>' in table and "<td>1</td>" in table
 
 
 def test_position_step_is_the_encoders_resolution():

@@ -280,7 +280,7 @@ def test_handout_stepper_key_points_and_instructor_key(tmp_path):
     assert text.count(" hidden>") == 2 and text.index('class="keypoints"') < text.index("<h2>")
     key = re.search(r'<details class="key">(.*?)</details>', text, re.S).group(1)
     assert "Answer one." in key and text.count("Answer one.") == 1
-    assert "<td>yes</td>" in text and "True" in (tmp_path / "tables" / "t1.csv").read_text()
+    assert "<td class=\"words\">yes</td>" in text and "True" in (tmp_path / "tables" / "t1.csv").read_text()
     md = (tmp_path / "summary.md").read_text()
     assert "one point" in md and "**Answer.** Answer two." in md and "figures/anim-01.png" in md
     with pytest.raises(InputError, match="differ in size"):

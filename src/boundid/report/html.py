@@ -17,6 +17,13 @@ table, the PNG and SVG of every figure, listed in full in its last section, "Fil
 benchmark page found under ``reports/``, each with its full description (the page's
 ``<meta name="description">``). :func:`write_index` writes the index of one group of pages
 (the teaching kit).
+
+The site index also links two pages it writes beside itself (:func:`write_site_pages`):
+``reports/glossary.html`` (:data:`boundid.report.glossary.GLOSSARY`) and ``reports/references.html``
+(``docs/references.md`` rendered). A page made with ``Page(..., glossary=True)`` (the study pages)
+links the first occurrence of each glossary term in its prose to its entry and every citation
+``[Key]`` to the references page (the rules: :mod:`boundid.report.glossary`); ``cites`` names
+the paper a page reproduces in full under its headline.
 """
 
 from __future__ import annotations
@@ -24,6 +31,7 @@ from __future__ import annotations
 import base64
 import html
 import io
+import posixpath
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -38,6 +46,15 @@ from matplotlib.figure import Figure
 from boundid import __version__
 from boundid.errors import InputError
 from boundid.report.figures import DPI
+from boundid.report.glossary import (
+    GLOSSARY_PAGE,
+    REFERENCES_PAGE,
+    Linker,
+    glossary_body,
+    references_body,
+    references_file,
+    slug,
+)
 from boundid.report.output import write_file_atomically
 from boundid.report.tables import FloatFormat, format_frame, latex_table, markdown_table, shows_index
 
@@ -76,7 +93,8 @@ table.data th, table.data td { padding: .28rem .65rem; border-bottom: 1px solid 
 table.data thead th { background: var(--bg-alt); border-bottom: 2px solid var(--line); }
 table.data.keyed td:first-child, table.data.keyed th:first-child { text-align: left; }
 table.data.keyed td:first-child { font-weight: 600; }
-table.data td.prose, table.data th.prose { text-align: left; white-space: normal; min-width: 24rem; }
+table.data td.prose, table.data th.prose { text-align: left; white-space: normal; min-width: 16rem; }
+table.data td.words, table.data th.words { text-align: left; }
 table.data tbody tr:hover { background: #fafbfc; }
 footer { margin-top: 3rem; font-size: .8rem; color: var(--muted); }
 ul.studies li { margin: .45rem 0; }
@@ -97,6 +115,13 @@ details.fold > summary { cursor: pointer; color: var(--accent); font-weight: 600
 .findings { border-left: 4px solid var(--accent); background: #eef6fb; padding: .5rem 1rem; margin: 1rem 0;
             border-radius: 0 6px 6px 0; }
 .findings.attention { border-left-color: #b33c00; background: #fdf1ea; }
+a.term { color: inherit; text-decoration: underline dotted var(--accent); text-underline-offset: .18em; }
+a.term:hover { color: var(--accent); }
+p.cites { font-size: .92rem; color: var(--muted); }
+dl.glossary dt { font-weight: 600; margin-top: .9rem; } dl.glossary dd { margin: .15rem 0 0 1.2rem; max-width: 75ch; }
+dl.glossary .forms { display: block; font-size: .85rem; color: var(--muted); }
+ul.refs li { margin: .4rem 0; max-width: 80ch; } pre { overflow-x: auto; font-size: .85rem; background: var(--bg-alt);
+                                                       padding: .4rem .6rem; }
 """
 
 # No script, no network: everything the page shows is inline (CSS) or a data: URI (images).
@@ -125,9 +150,21 @@ $body
 """)
 
 
-def _paragraphs(text: str) -> str:
-    """Plain text -> escaped <p> blocks (blank lines separate paragraphs)."""
-    return "\n".join(f"<p>{html.escape(' '.join(p.split()))}</p>" for p in re.split(r"\n\s*\n", text) if p.strip())
+def _paragraphs(text: str, linker: Linker | None = None) -> str:
+    """Plain text -> escaped <p> blocks (blank lines separate paragraphs); with ``linker``, its
+    glossary terms and citations linked (:class:`boundid.report.glossary.Linker`)."""
+    esc = html.escape if linker is None else linker.text
+    return "\n".join(f"<p>{esc(' '.join(p.split()))}</p>" for p in re.split(r"\n\s*\n", text) if p.strip())
+
+
+def _prose(text: str, linker: Linker | None) -> str:
+    """One line of plain text (a caption, a list item) escaped, with ``linker``'s links."""
+    return html.escape(text) if linker is None else linker.text(text)
+
+
+def _site_href(home: str | None, name: str) -> str:
+    """``name`` (a page beside the site index) relative to a page whose site index is ``home``."""
+    return posixpath.join(posixpath.dirname(home), name) if home else name
 
 
 def _meta_text(text: str) -> str:
@@ -158,15 +195,6 @@ def render_page(title: str, body: str, *, description: str = "", header: str = "
     return _PAGE.substitute(csp=csp, meta_description=html.escape(_meta_text(description)), version=__version__,
                             title=html.escape(title), css=css, header=header,
                             body=body, note=html.escape(note))
-
-
-def _slug(text: str, taken: set[str]) -> str:
-    base = re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-")[:48].strip("-") or "item"
-    slug, k = base, 2
-    while slug in taken:
-        slug, k = f"{base}-{k}", k + 1
-    taken.add(slug)
-    return slug
 
 
 @dataclass
@@ -206,20 +234,49 @@ class _Section:
 PROSE_CHARS = 60
 
 
-def _prose_cells(body: str, columns: list[int]) -> str:
-    """``body`` (a pandas to_html table) with the header and body cells of ``columns`` (0-based)
-    marked class="prose"."""
-    if not columns:
+def _link_cells(body: str, linker: Linker, keyed: bool) -> str:
+    """``body`` (a pandas to_html table) with the header cells, and the first (label) column of a
+    keyed table, linked where the whole cell is a glossary term (first occurrence only)."""
+    head, sep, rest = body.partition("<tbody>")
+    cell = re.compile(r"(<th(?: [^>]*)?>)(.*?)(</th>)", re.S)
+    head = cell.sub(lambda m: m.group(1) + linker.cell(m.group(2)) + m.group(3), head)
+    if keyed:
+        first = re.compile(r"(<tr>\s*<t[dh](?: [^>]*)?>)(.*?)(</t[dh]>)", re.S)
+        rest = first.sub(lambda m: m.group(1) + linker.cell(m.group(2)) + m.group(3), rest)
+    return head + sep + rest
+
+
+def _prose_cells(body: str, classes: dict[int, str]) -> str:
+    """``body`` (a pandas to_html table) with the header and body cells of the columns in ``classes``
+    (0-based column -> class, "prose" or "words") marked with their class."""
+    if not classes:
         return body
+
+    def tag(cell: str, k: int) -> str:
+        return f'<{cell} class="{classes[k]}">' if k in classes else f"<{cell}>"
+
     head, sep, rest = body.partition("<tbody>")
     ths = head.split("<th>")
-    head = ths[0] + "".join(('<th class="prose">' if k in columns else "<th>") + c for k, c in enumerate(ths[1:]))
+    head = ths[0] + "".join(tag("th", k) + c for k, c in enumerate(ths[1:]))
     rows = rest.split("<tr>")
     for i in range(1, len(rows)):
         cells = rows[i].split("<td>")
-        rows[i] = cells[0] + "".join(('<td class="prose">' if k in columns else "<td>") + c
-                                     for k, c in enumerate(cells[1:]))
+        rows[i] = cells[0] + "".join(tag("td", k) + c for k, c in enumerate(cells[1:]))
     return head + sep + "<tr>".join(rows)
+
+
+def _is_words(values) -> bool:
+    """Whether a column of cells (as shown) holds words rather than numbers: some cell is neither a
+    number nor a dash (left-aligned, as text reads; numbers stay right-aligned to line up digits)."""
+    for v in values:
+        text = str(v).strip()
+        if text in ("", "–", "-", "nan"):
+            continue
+        try:
+            float(text.replace(",", "").rstrip("%x ").replace("−", "-"))
+        except ValueError:
+            return True
+    return False
 
 
 class Page:
@@ -231,6 +288,14 @@ class Page:
     home : the site index relative to the page (default ``../index.html``: a page at
     ``reports/<name>/index.html``);  trail : (label, href) of the levels between the index and
     the page (e.g. the teaching kit), for the header.
+    glossary : link the first occurrence of each glossary term in the page's prose (paragraphs,
+    captions, the values of the set-up box, the findings; table header cells and the label column
+    when the whole cell is a term; never headings or the set-up box's labels) to ``glossary.html``
+    beside the site index, and every citation
+    ``[Key]`` to ``references.html``; :meth:`write` writes those pages there if they are missing.
+    cites : (label, reference key) of docs/references.md, e.g. ``[("Reproduces", "H4Paper")]``:
+    each shown under the description as "<label>: <the full reference>" (authors, title, venue,
+    year), and added to the meta description; InputError for a key the file does not have.
     """
 
     css = _CSS  # subclasses may add rules (the teaching handouts' stepper) or
@@ -238,8 +303,16 @@ class Page:
 
     def __init__(self, title: str, description: str = "", *, setup: Mapping[str, object] | None = None,
                  dpi: int = DPI, max_bytes: int = MAX_PAGE_BYTES, home: str | None = "../index.html",
-                 trail: Sequence[tuple[str, str]] = ()):
+                 trail: Sequence[tuple[str, str]] = (), glossary: bool = False,
+                 cites: Sequence[tuple[str, str]] = ()):
         self.title = title
+        self.glossary = glossary
+        self.cites = [(str(label), str(key).strip("[]")) for label, key in cites]
+        self._full_refs = {}
+        if self.cites:
+            from boundid.report.glossary import full_reference
+            self._full_refs = {key: full_reference(key) for _, key in self.cites}  # InputError: unknown key
+        self._site_links: set[str] = set()  # the site pages the last rendering linked to
         self.home = home
         self.trail = list(trail)
         self._attached: list[tuple[str, str, str]] = []  # (label, href, what it holds)
@@ -257,7 +330,7 @@ class Page:
     def section(self, title: str, text: str | None = None, *, folded: str | None = None) -> Page:
         """Start a new section (an <h2> in the page, listed in the navigation bar). ``folded``: the
         section's content is folded (<details>) under its heading behind this one-line summary."""
-        self._sections.append(_Section(title, _slug(title, self._anchors), folded=folded))
+        self._sections.append(_Section(title, slug(title, self._anchors), folded=folded))
         if text:
             self.text(text)
         return self
@@ -287,7 +360,7 @@ class Page:
         if not isinstance(df, pd.DataFrame):
             raise InputError(f"Page.table needs a pandas DataFrame, got {type(df).__name__}.")
         self._n_tables += 1
-        item = _Table(df, caption, _slug(name or caption, self._names), float_format, self._n_tables)
+        item = _Table(df, caption, slug(name or caption, self._names), float_format, self._n_tables)
         self._sections[-1].blocks.append(item)
         return self
 
@@ -311,7 +384,7 @@ class Page:
             fig.set_layout_engine(engine)
         self._n_figures += 1
         self._sections[-1].blocks.append(
-            _Figure(png.getvalue(), svg.getvalue(), caption, _slug(name or caption, self._names), self._n_figures)
+            _Figure(png.getvalue(), svg.getvalue(), caption, slug(name or caption, self._names), self._n_figures)
         )
         return self
 
@@ -327,18 +400,29 @@ class Page:
         text = format_frame(t.df, t.float_format)
         if shows_index(t.df):  # the index as a first, left-aligned column with its name in the header row
             text = text.reset_index()
-        prose = [k for k, c in enumerate(text.columns) if text[c].astype(str).str.len().max() > PROSE_CHARS]
+        classes = {}
+        for k, c in enumerate(text.columns):
+            cells = text[c].astype(str)
+            if cells.str.len().max() > PROSE_CHARS:
+                classes[k] = "prose"
+            elif _is_words(cells):
+                classes[k] = "words"
         body = _prose_cells(text.to_html(index=False, border=0, escape=True,
-                                         classes="data" + (" keyed" if shows_index(t.df) else "")), prose)
+                                         classes="data" + (" keyed" if shows_index(t.df) else "")), classes)
+        linker = self._linker
+        caption = _prose(t.caption, linker)  # the caption comes before the cells in the page
+        if linker is not None:
+            body = _link_cells(body, linker, shows_index(t.df))
         return (f'<figure class="tab" id="tab-{t.name}"><figcaption><b>Table {t.number}.</b> '
-                f'{html.escape(t.caption)}<span class="files"><a href="tables/{t.name}.csv">CSV</a> · '
+                f'{caption}<span class="files"><a href="tables/{t.name}.csv">CSV</a> · '
                 f'<a href="tables/{t.name}.tex">LaTeX</a></span></figcaption>'
                 f'<div class="scroll">{body}</div></figure>')
 
     def _figure_html(self, f: _Figure) -> str:
         data = base64.b64encode(f.png).decode("ascii")
         return (f'<figure class="fig" id="fig-{f.name}"><img src="data:image/png;base64,{data}" '
-                f'alt="{html.escape(f.caption)}"><figcaption><b>Figure {f.number}.</b> {html.escape(f.caption)}'
+                f'alt="{html.escape(f.caption)}"><figcaption><b>Figure {f.number}.</b> '
+                f'{_prose(f.caption, self._linker)}'
                 f'<span class="files"><a href="figures/{f.name}.png">PNG</a> · '
                 f'<a href="figures/{f.name}.svg">SVG</a></span></figcaption></figure>')
 
@@ -347,7 +431,7 @@ class Page:
             return self._table_html(block)
         if isinstance(block, _Figure):
             return self._figure_html(block)
-        return _paragraphs(block)
+        return _paragraphs(block, self._linker)
 
     def _files(self, data_files: Sequence[str]) -> tuple[str, str]:
         """The header bar and the "Files" section: data files, every table (CSV, LaTeX), every
@@ -382,18 +466,43 @@ class Page:
                            f' · <a href="figures/{f.name}.svg">SVG</a></li>' for f in figures) + "</ul>"
         return header, f'<section id="files">\n<h2>Files</h2>\n{out}\n</section>'
 
+    _linker: Linker | None = None  # set while to_html renders the page
+
+    def _cites_html(self, linker: Linker) -> str:
+        """ "<label>: <full reference> [Key]" lines (title in italics, the key linked)."""
+        return "\n".join(f'<p class="cites">{html.escape(label)}: {linker.reference_html(key)}</p>'
+                         for label, key in self.cites)
+
+    def _meta_description(self) -> str:
+        cites = "\n\n".join(f"{label}: {self._full_refs[key]}" for label, key in self.cites)
+        return "\n\n".join(t for t in (self.description, cites) if t.strip())
+
     def to_html(self, data_files: Sequence[str] = ()) -> str:
         """The complete page as one string; ``data_files``: files beside the page to link (names)."""
+        refs = _site_href(self.home, REFERENCES_PAGE)
+        linker = Linker(_site_href(self.home, GLOSSARY_PAGE) if self.glossary else None,
+                        refs if (self.glossary or self.cites) else None)
+        self._linker = linker if self.glossary else None
+        try:
+            return self._render(data_files, linker)
+        finally:
+            self._site_links = set(linker.used)
+            self._linker = None
+
+    def _render(self, data_files: Sequence[str], linker: Linker) -> str:
+        link = self._linker
         parts = []
         if self._findings is not None:
             f = self._findings
-            items = "".join(f"<li>{html.escape(' '.join(t.split()))}</li>" for t in f.items)
+            items = "".join(f"<li>{_prose(' '.join(t.split()), link)}</li>" for t in f.items)
             parts.append(f'<div class="findings{" attention" if f.attention else ""}"><b>Findings</b><ul>{items}'
                          "</ul></div>")
         if self.description:
-            parts.append(_paragraphs(self.description))
+            parts.append(_paragraphs(self.description, link))
+        if self.cites:
+            parts.append(self._cites_html(linker))
         if self.setup:
-            items = "".join(f"<dt>{html.escape(str(k))}</dt><dd>{html.escape(str(v))}</dd>"
+            items = "".join(f"<dt>{html.escape(str(k))}</dt><dd>{_prose(str(v), link)}</dd>"  # dt: a label
                             for k, v in self.setup.items())
             parts.append(f'<dl class="setup">{items}</dl>')
         titled = [s for s in self._sections if s.title is not None]
@@ -409,7 +518,7 @@ class Page:
                 parts.append(f'<section id="{s.anchor}">\n<h2>{html.escape(s.title)}</h2>\n{inner}\n</section>')
         header, files = self._files(data_files)
         parts.append(files)
-        return render_page(self.title, "\n".join(p for p in parts if p), description=self.description,
+        return render_page(self.title, "\n".join(p for p in parts if p), description=self._meta_description(),
                            header=header, css=self.css, csp=self.csp)
 
     def to_markdown(self) -> str:
@@ -424,6 +533,8 @@ class Page:
             out += ["**Findings**", ""] + [f"- {esc(' '.join(t.split()))}" for t in self._findings.items] + [""]
         if self.description:
             out += [esc(self.description.strip()), ""]
+        out += [f"{esc(label)}: {esc(self._full_refs[key])} [{esc(key)}]" for label, key in self.cites]
+        out += [""] if self.cites else []
         out += [f"- **{esc(k)}**: {esc(v)}" for k, v in self.setup.items()] + ([""] if self.setup else [])
         for s in self._sections:
             if s.title is not None:
@@ -467,6 +578,10 @@ class Page:
                 (root / "tables" / f"{b.name}.tex").write_text(
                     latex_table(b.df, b.caption, f"tab:{b.name}", b.float_format), encoding="utf-8")
         (root / "summary.md").write_text(self.to_markdown(), encoding="utf-8")
+        site = root / posixpath.dirname(self.home) if self.home else root
+        missing = [name for name in (GLOSSARY_PAGE, REFERENCES_PAGE) if not (site / name).is_file()]
+        if self._site_links and missing:  # a page written alone still has its links resolve (the glossary's too)
+            write_site_pages(site, missing)
         path.write_bytes(page)
         return path
 
@@ -571,6 +686,38 @@ _ABSENT = {"studies": "No study page yet: make report (or boundid run <study fil
            "benchmarks": "No benchmark page yet: make bench (boundid bench) measures and writes it."}
 
 
+_SITE_PAGES = {
+    GLOSSARY_PAGE: ("Glossary", "What the words of the study pages mean: gamma*, e_max, the exact polytope, the "
+                    "raw set and \"∩ prior box\", the set families (OBE standard and factorized, box, parallelotope, "
+                    "zonotope, limited polytope, OBE ∩ prior box), guaranteed, statistical and unverified sets, "
+                    "outliers, base parameters ..., each with its reference where one applies."),
+    REFERENCES_PAGE: ("References", "The papers and books boundid reproduces, implements and cites (authors, title, "
+                      "venue, year; docs/references.md), one anchor per key, and the formulas the code implements."),
+}
+
+
+def write_site_pages(reports_dir: str | Path, names: Sequence[str] = (GLOSSARY_PAGE, REFERENCES_PAGE)) -> list[Path]:
+    """Write the site's glossary (``glossary.html``) and references (``references.html``, from
+    docs/references.md; left out when the package runs without its checkout) into ``reports_dir``,
+    beside the site index. Returns the pages written."""
+    root = Path(reports_dir)
+    root.mkdir(parents=True, exist_ok=True)
+    has_refs = references_file() is not None
+    out = []
+    for name in names:
+        if name == REFERENCES_PAGE and not has_refs:
+            continue
+        title, description = _SITE_PAGES[name]
+        body = (glossary_body(REFERENCES_PAGE if has_refs else None) if name == GLOSSARY_PAGE
+                else _paragraphs("Every citation on the pages and in the code, a key such as [H4Paper] or a section "
+                                 "such as [refs §LP], points to an entry of this page (docs/references.md, "
+                                 "rendered).") + references_body())
+        title = f"boundid: {title.lower()}"
+        out.append(write_file_atomically(root / name, render_page(title, body, description=description,
+                                                                  header=site_header(title, "index.html"))))
+    return out
+
+
 def write_site_index(reports_dir: str | Path, title: str = "boundid reports") -> Path:
     """Write ``<reports_dir>/index.html``: every page found under ``reports_dir``, each with its
     full description (its meta description), in four sections:
@@ -578,9 +725,11 @@ def write_site_index(reports_dir: str | Path, title: str = "boundid reports") ->
     - studies: ``<name>/index.html`` (with links to its ``results.csv`` and campaign, if present);
     - campaigns: ``<name>/campaign/index.html``;
     - the teaching kit: ``teaching/index.html`` and each ``teaching/<lesson>/index.html``;
-    - benchmarks: ``benchmarks/index.html``.
+    - benchmarks: ``benchmarks/index.html``;
 
-    A section with no page says which command writes it. Nothing but the pages is read.
+    and, once there is a page, in a last section, the glossary and the references, written beside it
+    by :func:`write_site_pages`. A section with no page says which command writes it. Nothing but
+    the pages is read.
     """
     root = Path(reports_dir)
     root.mkdir(parents=True, exist_ok=True)
@@ -611,8 +760,11 @@ def write_site_index(reports_dir: str | Path, title: str = "boundid reports") ->
     if bench.is_file():
         b_title, b_text = _read_head(bench)
         groups["benchmarks"].append(_entry(f"{BENCHMARKS_DIR}/index.html", b_title or "benchmarks", b_text))
+    site_pages = [p.name for p in write_site_pages(root)] if any(groups.values()) else []  # once a page needs them
+    groups["reference"] = [_entry(name, _SITE_PAGES[name][0], _SITE_PAGES[name][1]) for name in site_pages]
     headings = {"studies": "Studies", "campaigns": "Monte Carlo campaigns", "teaching": "Teaching kit",
-                "benchmarks": "Benchmarks"}
+                "benchmarks": "Benchmarks", "reference": "Glossary and references"}
+    headings = {k: h for k, h in headings.items() if k in _ABSENT or groups[k]}
     nav = "<nav>" + "".join(f'<a href="#{k}">{h}</a>' for k, h in headings.items()) + "</nav>"
     sections = [f'<section id="{k}"><h2>{h}</h2>'
                 + ("".join(groups[k]) or f'<p class="absent">{html.escape(_ABSENT[k])}</p>') + "</section>"
@@ -625,4 +777,4 @@ def write_site_index(reports_dir: str | Path, title: str = "boundid reports") ->
 
 
 # the names the lesson handouts (boundid.teaching) build their pages with, as the study pages do
-Table, paragraphs, slug = _Table, _paragraphs, _slug
+Table, paragraphs = _Table, _paragraphs  # and slug, imported above
