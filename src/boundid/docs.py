@@ -127,6 +127,13 @@ DESCRIPTIONS = {
                                      "0 keeps every row.",
     "preprocessing.lambda_rad_s": "Pole of the filters lambda/(s + lambda), lambda s/(s + lambda) [rad/s].",
     "preprocessing.discretisation": "Discretisation of those filters.",
+    "preprocessing.torque_timing": "When each recorded torque acted, for the inverse dynamic rows: \"sample\" "
+                                   "(tau[k] is the torque at the sample instant t_k, paired with the state at t_k: a "
+                                   "torque measured at the sample) or \"hold\" (tau[k] was held over [t_k, t_k+1), as "
+                                   "a simulator or a drive that applies each command until the next sample: the row "
+                                   "at t_k takes (tau[k-1] + tau[k]) / 2, the torque at t_k, before the low-pass and "
+                                   "decimation). With \"sample\", a held torque is half a sample late, an error of "
+                                   "about (h/2) dtau/dt that grows with the trajectory's speed.",
     "prior": "Prior knowledge: a box, the OBE's initial set (circumscribed) and a bound of the exact polytope. "
              "On simulated data it must hold the robot's true parameters (a study that excludes them is refused).",
     "prior.center": "\"model\": the robot's a-priori values (unknown ones at 0); \"zero\": the origin.",

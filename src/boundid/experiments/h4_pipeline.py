@@ -26,7 +26,14 @@ from boundid._validation import as_float_array
 from boundid.errors import InputError
 from boundid.experiments.closed_loop import ClosedLoopRun, JointPID, simulate_closed_loop
 from boundid.experiments.measurement import TorqueNoise
-from boundid.experiments.preprocessing import DECIMATION_ORDER, decimate, differentiate, main_lobe
+from boundid.experiments.preprocessing import (
+    DECIMATION_ORDER,
+    TORQUE_TIMINGS,
+    decimate,
+    differentiate,
+    main_lobe,
+    torque_at_samples,
+)
 from boundid.experiments.regression import DroppedRows, Regression, stack_joint_rows
 from boundid.experiments.trajectories import (
     SegmentedTrajectory,
@@ -58,8 +65,10 @@ class IdentificationDesign:
     final); shape : (N, n), that of the angles (and of the torques); keep : (N_d,) bool, the
     decimated samples kept (edges dropped); fast : (R,) bool over the kept rows (sample-major), the
     rows kept by the low-speed rule (``min_speed``), or None; decimation, fc [Hz], fs [Hz] : the
-    torque's low-pass and decimation (the regressor columns'). :meth:`regression` then costs one
-    low-pass of the torque.
+    torque's low-pass and decimation (the regressor columns'); torque_timing : how the recorded
+    torque is timed against the samples, "sample" or "hold"
+    (:func:`boundid.experiments.preprocessing.torque_at_samples`, applied before the low-pass).
+    :meth:`regression` then costs one low-pass of the torque.
     """
 
     rows: Regression
@@ -69,13 +78,14 @@ class IdentificationDesign:
     decimation: int
     fc: float
     fs: float
+    torque_timing: str = "sample"
 
     def regression(self, tau) -> Regression:
         """The identification regression of the measured torque tau (N, n) N m on these angles."""
         tau = np.asarray(tau, float)
         if tau.shape != self.shape:
             raise InputError(f"tau must have the angles' shape {self.shape}, got {tau.shape}.")
-        taud = decimate(tau, self.decimation, self.fc, self.fs)
+        taud = decimate(torque_at_samples(tau, self.torque_timing), self.decimation, self.fc, self.fs)
         y = taud[self.keep].reshape(-1)
         if self.fast is not None:
             y = y[self.fast]
@@ -123,7 +133,7 @@ def _speed_thresholds(min_speed, n: int) -> np.ndarray:
 def identification_design(robot, t, q, cutoff_hz: float, decimation: int = 10,
                           decimation_cutoff_hz: float | None = None, jdot: str = "central",
                           edge_s: float = 0.2, min_speed=0.0, order: int = 4,
-                          slow_window_s: float | None = 0.0) -> IdentificationDesign:
+                          slow_window_s: float | None = 0.0, torque_timing: str = "sample") -> IdentificationDesign:
     """Steps 1-4 of the pipeline on the angles alone (arguments of :func:`identification_regression`)."""
     t = np.asarray(t, float)
     q = np.asarray(q, float)
@@ -131,6 +141,8 @@ def identification_design(robot, t, q, cutoff_hz: float, decimation: int = 10,
         raise InputError(f"need t (N,) and q (N, {robot.n_joints}); got {t.shape}, {q.shape}.")
     if jdot not in ("central", "analytic"):
         raise InputError(f"jdot must be 'central' or 'analytic', got {jdot!r}.")
+    if torque_timing not in TORQUE_TIMINGS:
+        raise InputError(f"torque_timing must be one of {', '.join(map(repr, TORQUE_TIMINGS))}, got {torque_timing!r}.")
     h = float(np.mean(np.diff(t)))
     if np.max(np.abs(np.diff(t) - h)) > 1e-6 * h:
         raise InputError("t must be uniformly sampled (the filters and differences assume it).")
@@ -152,7 +164,7 @@ def identification_design(robot, t, q, cutoff_hz: float, decimation: int = 10,
     keep = (td >= t[0] + edge_s) & (td <= t[-1] - edge_s)
     speeds = _speed_thresholds(min_speed, n)
     info = {"cutoff_hz": cutoff_hz, "decimation": decimation, "decimation_cutoff_hz": fc, "jdot": jdot,
-            "edge_s": edge_s, "min_speed": min_speed, "fs_hz": fs}
+            "edge_s": edge_s, "min_speed": min_speed, "fs_hz": fs, "torque_timing": torque_timing}
     rows = stack_joint_rows(Yd[keep], np.zeros((int(keep.sum()), n)), td[keep], "inverse_dynamic",
                             robot.param_names, info=info)
     fast = None
@@ -177,13 +189,13 @@ def identification_design(robot, t, q, cutoff_hz: float, decimation: int = 10,
             int(per_joint.sum()), int(fast.size), tuple(int(c) for c in per_joint), window / fs,
             f"a joint slower than {limit} rad/s within {window / fs:g} s: there its friction is not fc sign(qd) "
             "(stiction, creep) and the zero-phase filters spread that error over the neighbouring rows")
-    return IdentificationDesign(rows, q.shape, keep, fast, decimation, fc, fs)
+    return IdentificationDesign(rows, q.shape, keep, fast, decimation, fc, fs, torque_timing)
 
 
 def identification_regression(robot, t, q, tau, cutoff_hz: float, decimation: int = 10,
                               decimation_cutoff_hz: float | None = None, jdot: str = "central",
                               edge_s: float = 0.2, min_speed=0.0, order: int = 4,
-                              slow_window_s: float | None = 0.0) -> Regression:
+                              slow_window_s: float | None = 0.0, torque_timing: str = "sample") -> Regression:
     """The paper's identification regression from sampled motor angles and torques.
 
     t (N,) s uniformly sampled; q (N, 4) encoder angles (rad); tau (N, 4) Gamma = G_T V_T (N m);
@@ -194,7 +206,10 @@ def identification_regression(robot, t, q, tau, cutoff_hz: float, decimation: in
     one number or (n,) per joint: drop the rows of joint j within ``slow_window_s`` of a sample where
     the estimated |qd_j| < min_speed_j (there sign(qd) of the model is unreliable: at rest and at
     velocity reversals); slow_window_s : s, 0 (the slow sample's own row, the default) or None (the
-    filters' reach, :func:`low_speed_window`); ``dropped`` of the result counts those rows.
+    filters' reach, :func:`low_speed_window`); ``dropped`` of the result counts those rows;
+    torque_timing : "sample" (tau[k] is the torque at t_k) or "hold" (tau[k] was held over
+    [t_k, t_{k+1}): the row at t_k takes (tau[k-1] + tau[k]) / 2,
+    :func:`boundid.experiments.preprocessing.torque_at_samples`).
     Rows are sample-major (joint 0..3 of each kept sample); ``info`` records the settings.
     The angles' half is :func:`identification_design` (reuse it when only the torque changes).
     """
@@ -202,7 +217,7 @@ def identification_regression(robot, t, q, tau, cutoff_hz: float, decimation: in
     if tau.shape != q.shape:
         raise InputError(f"need q and tau of the same shape (N, {robot.n_joints}); got {q.shape}, {tau.shape}.")
     return identification_design(robot, t, q, cutoff_hz, decimation, decimation_cutoff_hz, jdot, edge_s,
-                                 min_speed, order, slow_window_s).regression(tau)
+                                 min_speed, order, slow_window_s, torque_timing).regression(tau)
 
 
 @dataclass(frozen=True)

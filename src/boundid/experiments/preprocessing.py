@@ -105,3 +105,32 @@ def decimate(x, factor: int, cutoff_hz: float | None = None, fs_hz: float | None
     fs = 1.0 if fs_hz is None else fs_hz
     fc = 0.8 * 0.5 * fs / factor if cutoff_hz is None else cutoff_hz
     return zero_phase_lowpass(x, fc, fs, order)[::factor]
+
+
+#: how a recorded torque is timed against the sample instants (:func:`torque_at_samples`)
+TORQUE_TIMINGS = ("sample", "hold")
+
+
+def torque_at_samples(tau, timing: str = "sample") -> np.ndarray:
+    """The torque at the sample instants t_k from the recorded tau[k] (N, ...), for rows that pair it
+    with the state at t_k (whose velocity and acceleration are central differences about t_k).
+
+    "sample": tau[k] is the torque at t_k (measured at the sample instant): returned unchanged.
+    "hold": tau[k] was held constant over [t_k, t_{k+1}) (zero-order hold: a simulator or a drive
+    that applies each command until the next sample). A held value is, to O(h^2), the torque at the
+    middle t_k + h/2 of its hold, so pairing it with t_k is half a sample late (an error of about
+    (h/2) dtau/dt); the torque at t_k is the mean of the two holds around it, (tau[k-1] + tau[k]) / 2,
+    which leaves an O(h^2) error. The first sample, which has no predecessor, takes the linear
+    extrapolation (3 tau[0] - tau[1]) / 2 (second order, as :func:`central_difference` at the ends).
+    A bound on the noise of tau[k] bounds the mean of two samples too; the extrapolated first
+    sample's noise can reach twice it, but its row is among the edge rows the pipelines drop.
+    """
+    if timing not in TORQUE_TIMINGS:
+        raise InputError(f"torque timing must be one of {', '.join(map(repr, TORQUE_TIMINGS))}, got {timing!r}.")
+    tau = _signal(tau, "tau")
+    if timing == "sample":
+        return tau.copy()
+    out = np.empty_like(tau)
+    out[1:] = 0.5 * (tau[:-1] + tau[1:])
+    out[0] = 1.5 * tau[0] - 0.5 * tau[1]
+    return out

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from boundid.errors import InputError, StudyError
-from boundid.estimators.method import Method, Style
+from boundid.estimators.method import Method
 from boundid.estimators.protocol import SHAPE_LIMITS
 from boundid.estimators.registry import METHODS
 from boundid.experiments.measurement import TorqueNoise
@@ -96,6 +96,10 @@ class PreprocessingConfig:
         threshold (there the model's sign(qd) is unreliable: at rest and at velocity reversals, and
         the zero-phase filters spread the error to the neighbouring rows); 0 keeps every row
     lambda_rad_s, discretisation : the filters lambda/(s + lambda), lambda s/(s + lambda)
+    torque_timing : how the inverse dynamic rows time the recorded torque: "sample" (tau[k] is the
+        torque at t_k, paired with the state at t_k) or "hold" (tau[k] was held over [t_k, t_{k+1}):
+        the row at t_k takes (tau[k-1] + tau[k]) / 2,
+        :func:`boundid.experiments.preprocessing.torque_at_samples`)
     """
 
     pairing: str = "zoh_midpoint"
@@ -104,6 +108,7 @@ class PreprocessingConfig:
     min_speed_rad_s: float | tuple[float, ...] = 0.0
     lambda_rad_s: float = 50.0
     discretisation: str = "tustin"  # | "paper"
+    torque_timing: str = "sample"  # | "hold"
 
 
 @dataclass(frozen=True)
@@ -186,10 +191,6 @@ class StudyConfig:
     paper: dict
     file: Path
     published: tuple = ()  # boundid.studies.published.PublishedTable, one per [[published]] table
-
-    def styles(self) -> dict[str, Style]:
-        """{estimator label: the style of its method and options} (what the report draws it with)."""
-        return {e.label: METHODS[e.method].style_for(e.options) for e in self.estimators}
 
     def with_seed(self, seed: int) -> StudyConfig:
         """The same study with another seed (an integer >= 0, as numpy's SeedSequence needs)."""
@@ -487,6 +488,7 @@ def load_study(path: str | Path) -> StudyConfig:
         min_speed_rad_s=_min_speed(pp, model.n_joints),
         lambda_rad_s=pp.float("lambda_rad_s", 50.0, lo=0.0, strict_lo=True),
         discretisation=pp.str("discretisation", "tustin", choices=("tustin", "paper")),
+        torque_timing=pp.str("torque_timing", "sample", choices=("sample", "hold")),
     )
     pp.check_unknown()
     pr = top.section("prior")

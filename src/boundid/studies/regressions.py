@@ -19,17 +19,22 @@ def inverse_dynamic_rows(model: RobotModel, rec: Recording, pp: PreprocessingCon
     and decimated together ("parallel filtering"); the first and last ``3 / f_c`` seconds, where the
     zero-phase filters start from assumed edge values, dropped; with ``min_speed_rad_s``, the rows of
     a joint within the filters' reach (:func:`boundid.experiments.h4_pipeline.low_speed_window`) of a
-    sample where it is slower than its threshold, dropped too (counted in the result's ``dropped``)."""
+    sample where it is slower than its threshold, dropped too (counted in the result's ``dropped``).
+    The torque is timed by ``torque_timing`` before its low-pass: "sample" pairs tau[k] with the
+    state at t_k, "hold" (a torque held over [t_k, t_{k+1})) gives the row at t_k the mean
+    (tau[k-1] + tau[k]) / 2 (:func:`boundid.experiments.preprocessing.torque_at_samples`)."""
     return inverse_dynamic_design(model, rec, pp).regression(rec.tau)
 
 
 def inverse_dynamic_design(model: RobotModel, rec: Recording, pp: PreprocessingConfig) -> IdentificationDesign:
-    """The angles' half of :func:`inverse_dynamic_rows` (its torque is ignored): reuse it for
-    recordings that differ only in their torque (new draws of the torque noise)."""
+    """The angles' half of :func:`inverse_dynamic_rows` (its torque is ignored; the design keeps
+    ``pp.torque_timing`` and applies it to every torque it is given): reuse it for recordings that
+    differ only in their torque (new draws of the torque noise)."""
     h = rec.h
     fc = pp.lowpass_cutoff_hz or 0.8 * 0.5 / (h * pp.decimation)
     return identification_design(model, rec.t, rec.q, pp.lowpass_cutoff_hz, pp.decimation, decimation_cutoff_hz=fc,
-                                 jdot="analytic", edge_s=3.0 / fc, min_speed=pp.min_speed_rad_s, slow_window_s=None)
+                                 jdot="analytic", edge_s=3.0 / fc, min_speed=pp.min_speed_rad_s, slow_window_s=None,
+                                 torque_timing=pp.torque_timing)
 
 
 def build_regressions(model: RobotModel, rec: Recording, pp: PreprocessingConfig,
