@@ -5,7 +5,9 @@
 - cross-validation trajectory ([H4Paper] eq. 37): predict the torque of a different experiment,
   with the bounds of a set-membership estimate S, [-h_S(-w), h_S(w)] (h_S the support function:
   for an ellipsoid w^T theta_hat +- sqrt(w^T S w), eq. 37; the same formula for a set of any
-  family), and the statistical 95 % prediction band w^T theta_hat +- 1.96 sqrt(w^T Cov w + sigma^2);
+  family), and the statistical band w^T theta_hat +- 1.96 sqrt(w^T Cov w + sigma^2), a 95 % prediction
+  band when the validation rows' error is white noise of the variance sigma^2 the estimate assumes (its
+  coverage of the validation samples, :func:`band_name`, says whether it is one on the data at hand);
 - the second truth (simulated data): the identification model's best approximation of the simulated
   robot (:func:`boundid.experiments.best_approximation.best_approximation`), for comparisons where
   the model cannot represent the simulator's parameters;
@@ -18,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import stats
 
 from boundid.errors import RUN_FAILURES
 from boundid.estimators import Estimate
@@ -39,13 +42,22 @@ class Resimulation:
     failure: str | None = None
 
 
+PREDICTION_LEVEL = 0.95  # nominal coverage of the statistical bands
+#: a statistical band whose coverage of the validation samples lies in this range is called a prediction
+#: band at PREDICTION_LEVEL; outside it the page names it by what it is (:func:`band_name`)
+COVERAGE_RANGE = (0.90, 0.99)
+
+
 @dataclass
 class TorqueBand:
     """Predicted torque on the validation trajectory, (S, n) N m each: the prediction
     w^T theta_hat and the band [lower, upper] around it; ``kind`` the estimate's ("exact" for the
     feasible polytope's own band). error_bound (n,) N m, for a set-membership band: the bound on
     |measured - w^T theta| of each joint's rows, so that under the bound the measured torque lies in
-    [lower - e, upper + e] (a statistical band already predicts the measured torque: None)."""
+    [lower - e, upper + e] (a statistical band already predicts the measured torque: None).
+    A statistical band's ``level`` is its nominal coverage (None for the others) and ``noise`` where
+    its noise variance comes from: "residuals" (estimated from the identification residuals: OLS,
+    WLS, RLS) or "stated" (given, not estimated: the Kalman filter's R)."""
 
     label: str
     center: np.ndarray
@@ -53,6 +65,8 @@ class TorqueBand:
     upper: np.ndarray
     kind: str
     error_bound: np.ndarray | None = None
+    level: float | None = None
+    noise: str | None = None
 
     @property
     def half_width(self) -> np.ndarray:
@@ -64,6 +78,21 @@ class TorqueBand:
         regression, are not counted)."""
         valid = ~np.isnan(measured)
         return float(np.mean(((measured < self.lower) | (measured > self.upper))[valid]))
+
+    def coverage(self, measured: np.ndarray) -> float:
+        """Share of the measured torques (S, n) inside the band (NaN entries not counted)."""
+        return 1.0 - self.outside_fraction(measured)
+
+    def error_ratio(self, measured: np.ndarray) -> np.ndarray:
+        """Per joint (n,), rms of measured - center over the rms of the standard deviation the band
+        predicts (half-width / z of its level): ~1 when the band's noise model holds, NaN for a band
+        that is not statistical."""
+        n = measured.shape[1]
+        if self.level is None:
+            return np.full(n, np.nan)
+        sd = self.half_width / stats.norm.ppf(0.5 + 0.5 * self.level)
+        err = measured - self.center
+        return np.array([np.sqrt(np.nanmean(err[:, j] ** 2) / np.nanmean(sd[:, j] ** 2)) for j in range(n)])
 
     def outside_measured_fraction(self, measured: np.ndarray) -> float:
         """Share of the measured torques (S, n) outside [lower - e, upper + e], the band a measurement
@@ -108,8 +137,9 @@ def per_sample(values: np.ndarray, reg, n_joints: int) -> tuple[np.ndarray, np.n
 def torque_bands(reg, n_joints: int, estimates: dict[str, Estimate], polytope: Polytope | None = None,
                  error_bounds: dict[str, np.ndarray] | None = None) -> dict[str, TorqueBand]:
     """[H4Paper] eq. 37 bounds [-h_S(-w), h_S(w)] of each row w of the regression ``reg`` for
-    set-membership estimates (guaranteed or unverified, any family), 95 % prediction bands w^T c +-
-    1.96 sqrt(w^T Cov w + noise variance) for statistical ones; point estimates get none. With the
+    set-membership estimates (guaranteed or unverified, any family), bands w^T c +- 1.96 sqrt(w^T Cov w +
+    noise variance) of nominal level PREDICTION_LEVEL for statistical ones (95 % prediction bands when
+    the rows' error is white noise of that variance; :func:`band_name`); point estimates get none. With the
     exact feasible polytope, its own band "LP exact" [min, max] of w^T theta over it (2 LPs per
     row): the narrowest band any guaranteed set can give. Each band is (S, n) per sample
     (:func:`per_sample`); error_bounds: label (or "LP exact") -> the bound (n,) of each joint's rows."""
@@ -121,19 +151,54 @@ def torque_bands(reg, n_joints: int, estimates: dict[str, Estimate], polytope: P
         bands["LP exact"] = TorqueBand("LP exact", *(per_sample(a, reg, n_joints)[0]
                                                      for a in (0.5 * (lower + upper), lower, upper)),
                                        "exact", error_bounds.get("LP exact"))
+    z = stats.norm.ppf(0.5 + 0.5 * PREDICTION_LEVEL)
     for label, est in estimates.items():
         center = W @ est.center
+        level = noise = None
         if est.set_membership:
             upper, lower = support_values(est.set, W), -support_values(est.set, -W)
         elif est.statistics is not None:
             var = np.einsum("ij,jk,ik->i", W, est.statistics.cov, W)
-            half = 1.96 * np.sqrt(var + est.statistics.row_noise_variance(joint))
+            half = z * np.sqrt(var + est.statistics.row_noise_variance(joint))
             lower, upper = center - half, center + half
+            # dof is infinite where the noise variance was given rather than estimated (Kalman's R)
+            level, noise = PREDICTION_LEVEL, "stated" if np.isinf(est.statistics.dof) else "residuals"
         else:
             continue
         bands[label] = TorqueBand(label, *(per_sample(a, reg, n_joints)[0] for a in (center, lower, upper)),
-                                  est.kind, error_bounds.get(label) if est.set_membership else None)
+                                  est.kind, error_bounds.get(label) if est.set_membership else None, level, noise)
     return bands
+
+
+def band_name(band: TorqueBand, measured: np.ndarray) -> str:
+    """What a band is, given its coverage of the measured torques (S, n): a statistical band is a
+    "95 % prediction band" only where its coverage lies in COVERAGE_RANGE; elsewhere the noise model it
+    rests on does not describe the validation rows (their error is larger or smaller than the noise
+    variance it assumes: not white noise of that variance, e.g. a deterministic error of the rows
+    that depends on the motion) and it is named by where its width comes from."""
+    if band.level is None:
+        return "[min, max] over the exact polytope" if band.kind == "exact" else "[min, max] over the set"
+    lo, hi = COVERAGE_RANGE
+    if lo <= band.coverage(measured) <= hi:
+        return f"{100 * band.level:g} % prediction band"
+    source = "the stated noise variance R" if band.noise == "stated" else "the identification residuals' noise"
+    return f"band of {source} (nominal {100 * band.level:g} %, not a prediction band here)"
+
+
+def statistical_coverage(reg, n_joints: int, estimates: dict[str, Estimate]) -> dict[str, float]:
+    """Coverage of the statistical bands of ``estimates`` on the rows of ``reg`` (e.g. the identification
+    rows they were fitted to, where the residual noise variance was estimated)."""
+    stat = {lab: e for lab, e in estimates.items() if e.kind == "statistical" and e.statistics is not None}
+    measured = per_sample(reg.y, reg, n_joints)[0]
+    return {lab: b.coverage(measured) for lab, b in torque_bands(reg, n_joints, stat).items()}
+
+
+def row_error_rms(reg, n_joints: int, theta: np.ndarray) -> np.ndarray:
+    """Per joint (n,), the rms of y - W theta over the rows of ``reg`` (with the true theta: the rows'
+    own error, noise and any deterministic error of the data, whatever the estimate)."""
+    e = reg.y - reg.W @ theta
+    return np.array([np.sqrt(np.mean(e[reg.joint == j] ** 2)) if np.any(reg.joint == j) else np.nan
+                     for j in range(n_joints)])
 
 
 @dataclass
