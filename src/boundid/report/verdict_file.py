@@ -42,10 +42,12 @@ from boundid import __version__
 from boundid.errors import RUN_FAILURES, InputError
 from boundid.studies.reproduction import VERDICTS as CLAIM_VERDICTS
 from boundid.studies.reproduction import claims
+from boundid.studies.reproduction import counts as claim_counts
+from boundid.studies.reproduction import summary as claims_summary
 
 FILE_NAME = "verdict.json"
 SCHEMA_NAME = "boundid-verdict"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 #: the reason of every truth check on measured data
 NO_TRUTH = "measured data: no truth"
 #: exit codes: every evaluated gate check passes (or --allow-failures); a gate check fails
@@ -93,7 +95,7 @@ CHECKS: dict[str, Spec] = {
     "paper_claims": Spec(
         False, "<=", 0, "count",
         "paper claims (boundid.studies.reproduction.claims) whose verdict is 'not reproduced'; details.counts "
-        "gives the number of each verdict"),
+        "gives the number of each verdict (a claim that holds by construction is not counted as reproduced)"),
     "estimator_failures": Spec(
         False, "<=", 0, "count",
         "failures the run recorded (estimators, exact optima, physical consistency, validation, re-simulation), "
@@ -329,11 +331,9 @@ def paper_claims(r) -> Check:
     if not found:
         return _unjudged(cid, f"no paper claim applies to this study (the {r.config.robot} robot has no paper, or the "
                          "study runs none of the estimators its paper's claims are about)")
-    counts = {v: sum(c.verdict == v for c in found) for v in CLAIM_VERDICTS}
+    counts = claim_counts(found)
     details = {"counts": counts, "claims": [asdict(c) for c in found]}
-    summary = f"{counts['reproduced']} of {len(found)} paper claims reproduced" + "".join(
-        f", {n} {v}" for v, n in counts.items() if n and v != "reproduced")
-    return _judged(cid, counts["not reproduced"], summary, details)
+    return _judged(cid, counts["not reproduced"], claims_summary(found), details)
 
 
 def estimator_failures(r) -> Check:
@@ -432,7 +432,7 @@ _NUM = {"type": ["number", "null"]}
 _COUNT = {"type": "integer", "minimum": 0}
 _LABELS = {"type": "array", "items": _STR}
 
-#: the JSON Schema (draft 2020-12) of verdict.json, schema_version 1; docs/verdict-file.md shows it
+#: the JSON Schema (draft 2020-12) of verdict.json, schema_version 2; docs/verdict-file.md shows it
 SCHEMA: dict = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
     "title": "boundid verdict.json",
@@ -488,8 +488,9 @@ SCHEMA: dict = {
         "details_paper_claims": _obj({
             "counts": _obj({v: _COUNT for v in CLAIM_VERDICTS}, CLAIM_VERDICTS),
             "claims": {"type": "array", "items": _obj(
-                {"claim": _STR, "paper": _STR, "ours": _STR, "verdict": {"enum": list(CLAIM_VERDICTS)},
-                 "reason": _STR}, ("claim", "paper", "ours", "verdict", "reason"))}}),
+                {"id": _STR, "section": _STR, "claim": _STR, "paper": _STR, "method": _STR, "ours": _STR,
+                 "verdict": {"enum": list(CLAIM_VERDICTS)}, "reason": _STR, "others": _STR},
+                ("id", "section", "claim", "paper", "method", "ours", "verdict", "reason", "others"))}}),
         "details_estimator_failures": _obj({
             "failures": {"type": "array", "items": _obj({"stage": _STR, "subject": _STR, "reason": _STR},
                                                         ("stage", "subject", "reason"))},

@@ -20,6 +20,7 @@ from boundid.studies.bounds import BoundRule, GammaStar, gamma_star
 from boundid.studies.config import StudyConfig, prior_box
 from boundid.studies.data import StudyData, acquire
 from boundid.studies.estimation import run_estimator
+from boundid.studies.paper_experiments import paper_experiments
 from boundid.studies.physical_stage import PhysicalResult, physical_stage
 from boundid.studies.progress import QUIET, Progress
 from boundid.studies.published import PublishedComparison, compare_published
@@ -414,5 +415,13 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
     failures += [Failure("re-simulation", rs.label, rs.failure) for rs in validation.get("resimulation", [])
                  if rs.failure is not None]
     timings["validation"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    with progress.stage(f"{cfg.name}: the paper's own experiments"):
+        try:
+            validation["paper"] = paper_experiments(cfg, model, data, regressions)
+        except RUN_FAILURES as exc:
+            failures.append(Failure("validation", "the paper's own experiments", _reason(exc)))
+    timings["paper"] = time.perf_counter() - t0
     return StudyResult(cfg, model, data, regressions, estimates, failures, exact, validation,
                        tidy_table(cfg, model, estimates, exact), timings, published)
