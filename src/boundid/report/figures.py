@@ -540,7 +540,7 @@ def projection_2d(
         span = hi2 - lo2
         same_units = units is not None and units[0] == units[1]
         if same_units and span.min() > 0 and span.max() / span.min() <= 4.0:
-            ax.set_aspect("equal", adjustable="datalim")
+            ax.set_aspect("equal", adjustable="box")  # the limits stay; the axes box takes the shape
     else:
         ax.autoscale_view()
     ax.set_xlabel(_label(names[0], units[0] if units is not None else None))
