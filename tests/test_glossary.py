@@ -149,12 +149,14 @@ def test_a_reference_key_resolves_to_its_full_reference():
 
 def test_study_citations_follow_the_robot_and_the_published_sources():
     class Cfg:
-        def __init__(self, robot, sources=()):
+        def __init__(self, robot, sources=(), source="simulate"):
             self.robot = robot
             self.published = [type("T", (), {"source": s})() for s in sources]
+            self.experiment = type("E", (), {"source": source})()
 
-    assert study_citations(Cfg("h4")) == [("Reproduces", "H4Paper")]
-    assert study_citations(Cfg("direct_drive")) == [("Reproduces", "DirectDrivePaper")]
+    assert study_citations(Cfg("h4")) == [("Reproduces on simulated data", "H4Paper")]
+    assert study_citations(Cfg("direct_drive")) == [("Reproduces on simulated data", "DirectDrivePaper")]
+    assert study_citations(Cfg("h4", source="measured")) == [("The paper", "H4Paper")]
     tx40 = Cfg("urdf", ["[FIGAROH] config/T40X_config.yaml", "[FIGAROH] results", "[Leboutet2021] BIRDy"])
     assert study_citations(tx40) == [("Source", "FIGAROH"), ("Source", "Leboutet2021")]
     assert study_citations(Cfg("urdf")) == []
@@ -206,10 +208,11 @@ def test_a_study_page_names_its_paper_in_full_under_the_headline(tiny, tmp_path)
     html = study_page(r).to_html()
     full = full_reference("DirectDrivePaper")
     title = "Experimental evaluation of identification schemes on a direct drive robot."
-    cites = re.search(r'<p class="cites">Reproduces: (.*?)</p>', html)
-    assert cites, "no 'Reproduces:' line"
+    cites = re.search(r'<p class="cites">Reproduces on simulated data: (.*?)</p>', html)
+    assert cites, "no 'Reproduces on simulated data:' line"
     assert f"<em>{title}</em>" in cites.group(1) and "F. Reyes, R. Kelly." in cites.group(1)
     assert html.index('<p class="cites">') < html.index('<dl class="setup">') < html.index("<h2>")
     assert html.index("<h1>") < html.index('<p class="cites">')
-    assert f"Reproduces: {full}" in re.search(r'<meta name="description" content="([^"]*)"', html).group(1)
+    description = re.search(r'<meta name="description" content="([^"]*)"', html).group(1)
+    assert f"Reproduces on simulated data: {full}" in description
     assert 'class="term"' in html  # the study page links its glossary terms

@@ -21,9 +21,9 @@ def _claim(verdict: str) -> Claim:
 
 
 def test_summary_counts_only_the_tested_claims():
-    """Two tested claims (one reproduced, one not), one by construction, one untestable: "1 of 2"."""
+    """Two tested claims (one reproduced, one not), one by construction, one untestable: "2 tested"."""
     found = [_claim(v) for v in ("reproduced", "not reproduced", "holds by construction", "cannot be tested")]
-    assert summary(found) == ("1 of 2 tested paper claims reproduced (1 not); 1 holds by construction, "
+    assert summary(found) == ("2 paper claims tested: 1 reproduced, 1 not; 1 holds by construction, "
                               "1 cannot be tested")
     assert set(TESTED) < set(VERDICTS) and "holds by construction" not in TESTED
 
@@ -54,14 +54,18 @@ def test_outliers_hold_by_construction_only_where_the_bound_holds_at_the_truth()
 
 
 def test_centre_claim_is_tested_only_on_the_parameters_the_data_identify():
-    """Exact intervals equal to the prior box: nothing to test (by construction). Mnac narrowed 4 x
-    with its centre 10 % off its prior: tested there (within the stand-in Table I's largest deviation,
-    50 %), and only partly, since Imot1 is not identified; 60 % off: not reproduced."""
+    """Exact intervals equal to the prior box: nothing to test (by construction); Mnac narrowed 4 x
+    inside the criterion's band (its prior +- 50 %, the stand-in Table I's largest deviation): any
+    consistent estimate passes (by construction). Mnac's interval reaching past the band: tested, its
+    centre 10 % off its prior passes, and only partly, since Imot1 is not identified; 60 % off: not
+    reproduced."""
     c = _h4_context(violations=0, lp_lo=[0.5, 1.0], lp_hi=[1.5, 3.0], center=[1.2, 2.2])
     assert c.centre().verdict == "holds by construction"
-    claim = _h4_context(violations=0, lp_lo=[0.5, 2.0], lp_hi=[1.5, 2.5], center=[1.2, 2.2]).centre()
+    c = _h4_context(violations=0, lp_lo=[0.5, 2.0], lp_hi=[1.5, 2.5], center=[1.2, 2.2])
+    assert c.centre().verdict == "holds by construction" and "lie within the criterion's band" in c.centre().reason
+    claim = _h4_context(violations=0, lp_lo=[0.5, 2.4], lp_hi=[1.5, 3.2], center=[1.2, 2.2]).centre()
     assert claim.verdict == "partly" and "Mnac (10 % off the prior" in claim.reason
-    assert "Imot1 are not identified" in claim.reason
+    assert "the data do not identify Imot1" in claim.reason
     claim = _h4_context(violations=0, lp_lo=[0.5, 3.1], lp_hi=[1.5, 3.3], center=[1.2, 3.2]).centre()
     assert claim.verdict == "not reproduced" and "60 % off the prior" in claim.reason
 

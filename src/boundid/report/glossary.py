@@ -189,9 +189,13 @@ GLOSSARY: tuple[Term, ...] = (
          "confidence band widened by the noise variance; the statistical bands of the validation sections.",
          ("prediction band", "prediction bands")),
     Term("holds by construction", "by-construction",
-         "Said of a check that cannot fail on the run's own data: with an e_max rule (e_max = factor x gamma*, "
-         "factor >= 1) the data are consistent with the bound because the bound was taken from them. Reported, but "
-         "no evidence that the bound holds at the truth.",
+         "Said of a check or a paper's claim that cannot fail on the run's own data, so it is reported but never "
+         "counted as evidence. A claim of a paper holds by construction when the simulation puts it into the data "
+         "(the simulator's parameters are the paper's table) or when no outcome could contradict it (a centre that "
+         "stays at the prior where the data do not constrain the parameter); a check of the bound does when the "
+         "bound was taken from the data (an e_max rule, factor x gamma* with factor >= 1, is consistent with them "
+         "by definition). Among the verdicts of a claims register it sits beside reproduced, partly (one part of "
+         "the claim holds, another does not), not reproduced and cannot be tested (what the test needs is missing).",
          ("holds by construction", "by construction")),
 )
 
@@ -311,7 +315,8 @@ def reference_anchor(ref: str) -> str:
 
 def study_citations(cfg) -> list[tuple[str, str]]:
     """(label, key) of the works a study page names in full under its headline: the paper it
-    reproduces ("h4" -> [H4Paper], "direct_drive" -> [DirectDrivePaper]), else the sources its
+    reproduces ("h4" -> [H4Paper], "direct_drive" -> [DirectDrivePaper]; "Reproduces on simulated data"
+    for a simulated study, "The paper" for a recording of that robot), else the sources its
     [[published]] tables cite, each as "Source" (the TX40: [FIGAROH], its recording and values, and
     [Leboutet2021]). Keys docs/references.md does not have are left out."""
     try:
@@ -320,7 +325,8 @@ def study_citations(cfg) -> list[tuple[str, str]]:
         return []
     paper = {"h4": "H4Paper", "direct_drive": "DirectDrivePaper"}.get(cfg.robot)
     if paper is not None:
-        return [("Reproduces", paper)] if paper in known else []
+        label = "Reproduces on simulated data" if cfg.experiment.source == "simulate" else "The paper"
+        return [(label, paper)] if paper in known else []
     keys = dict.fromkeys(k for t in getattr(cfg, "published", ()) for k in _CITE.findall(t.source) if k in known)
     return [("Source", k) for k in keys]
 

@@ -27,7 +27,16 @@ from boundid.report.verdict_file import write_verdict_file
 from boundid.sets import log_unit_ball_volume
 from boundid.studies.bounds import bound_sweep, where_rows_sit
 from boundid.studies.certify_files import certificate_row
-from boundid.studies.reproduction import IDENTIFIED_FACTOR, Claim, claims, identification, prior_bounds, shrank
+from boundid.studies.reproduction import (
+    IDENTIFIED_FACTOR,
+    REGISTER_SOURCE,
+    TRUTH_SOURCE,
+    Claim,
+    claims,
+    identification,
+    prior_bounds,
+    shrank,
+)
 from boundid.studies.reproduction import summary as claims_summary
 from boundid.studies.runner import RELAXED_TIME_LIMIT_S, Failure, StudyResult, reference_values
 from boundid.studies.validation import (
@@ -186,7 +195,7 @@ def _paper_section_h4(page: Page, r: StudyResult) -> None:
     df = parameter_table(names, cols)
     if "LP exact" in cols:
         df["data shrank the prior?"] = [_yes(x) for x in shrank(ex.bounds.lo, ex.bounds.hi, *box)]
-    page.section("Table I, reproduced",
+    page.section("Table I: the simulator's truth and the estimates",
                  "The simulator's parameters (truth 1) are the centre of the paper's Table I; truth 2 is the "
                  "identification model's best approximation of the simulated robot (see \"Two truths\"), the one "
                  "to compare estimates with where the model cannot represent the simulator. The a-priori values "
@@ -221,7 +230,7 @@ def _paper_section_h4(page: Page, r: StudyResult) -> None:
 def _paper_section_direct_drive(page: Page, r: StudyResult) -> None:
     m, names = r.model, r.model.param_names
     rls = {rn: e for (lab, rn), e in r.estimates.items() if e.method == "RLS"}
-    page.section("Table II, reproduced: RLS on three regression models",
+    page.section("Table II: RLS on three regression models, against the truth",
                  "Final RLS estimates (theta(0) = 0, P(0) = 1000 I) per regression model, and their deviation "
                  "from the simulation's true values. Paper's outcome: " + str(r.config.paper.get("outcome", "")))
     cols = {"truth": m.theta_true, **{rn: e.center for rn, e in rls.items()}}
@@ -634,6 +643,8 @@ def findings(r: StudyResult, verdicts: list[Claim], failures: list[Failure]) -> 
     exact polytope, the paper verdicts, failures, OBE width over the exact width, breakdown rates."""
     out: dict[str, str] = {}
     ex, truth = r.exact, _truth(r)
+    if verdicts:
+        out["paper claims"] = claims_summary(verdicts) + " (the register below)"
     if ex is not None:
         n_rows = r.regressions[ex.regression].n_rows
         if ex.evidence is not None:
@@ -679,8 +690,6 @@ def findings(r: StudyResult, verdicts: list[Claim], failures: list[Failure]) -> 
     band = _cross_validation_finding(r)
     if band:
         out["cross-validation torque bands"] = band
-    if verdicts:
-        out["paper claims"] = claims_summary(verdicts) + " (table below)"
     sweep = r.validation.get("obe_sweep")
     if sweep is not None:
         out["OBE breakdown rate"] = ", ".join(
@@ -719,12 +728,14 @@ def _truth_inside(r: StudyResult, truth: np.ndarray) -> str:
 def _verdict_section(page: Page, r: StudyResult, verdicts: list[Claim]) -> None:
     paper = {"h4": "H4 paper", "direct_drive": "direct-drive paper"}.get(r.config.robot, "paper")
     page.section("Does it reproduce?",
-                 f"The claims register of the {paper}: every claim of its abstract, results and conclusion, with "
-                 "its section, tested first on the paper's own method as this run applies it. \"Holds by "
-                 "construction\" marks a claim that cannot fail on these data (the reason says why): it is not "
-                 "counted as reproduced. \"Cannot be tested\" says what is missing. The verdicts count: "
-                 f"{claims_summary(verdicts)}. What the other estimators say is in the second table and never "
-                 "decides a verdict.")
+                 f"The claims register of the {paper}, written from {REGISTER_SOURCE.get(r.config.robot, 'its text')}: "
+                 "every claim of its abstract, results and conclusion, with its section, tested first on the paper's "
+                 "own method as this run applies it, on simulated data with true parameters from "
+                 f"{TRUTH_SOURCE.get(r.config.robot, 'the paper')}. \"Partly\" says that one part of a claim holds "
+                 "and another does not (the reason says which). \"Holds by construction\" marks a claim that cannot "
+                 "fail on these data (the reason says why): it is not counted as reproduced. \"Cannot be tested\" "
+                 f"says what is missing. The verdicts: {claims_summary(verdicts)}. What the other estimators say is in "
+                 "the second table and never decides a verdict.")
     df = pd.DataFrame([c.__dict__ for c in verdicts]).set_index("id")
     table = pd.DataFrame({"claim (section)": [f"{c.claim} ({c.section})" for c in verdicts],
                           "verdict": df["verdict"], "the paper": df["paper"],
@@ -759,7 +770,9 @@ def _stability_section(page: Page, r: StudyResult) -> None:
               "rows repeated (a longer run). \"Shrink of the prior\" is the largest ratio of the prior "
               "ellipsoid's half-width to the final set's; \"centres apart\" and \"shapes apart\" are the two "
               "forms' largest differences in units of the factorized set's half-widths. Missing the truth counts "
-              "as a breakdown only where the truth keeps the bound on those rows.")
+              "as a breakdown only where the truth keeps the bound on those rows. \"Guaranteed\" is the "
+              "estimator's own verdict on its arithmetic: it holds under the bound, so where the truth breaks the "
+              "bound (its max |error| / e_max above 1, as on the unfiltered rows) the set need not contain the truth.")
     page.table(df, "The standard and the factorized OBE under each condition.", float_format="{:.3g}",
                name="obe_stability")
 
@@ -858,8 +871,12 @@ def _truth(r: StudyResult) -> tuple[np.ndarray, str] | None:
 
 
 def _headline(r: StudyResult, verdicts: list[Claim]) -> str:
-    """One sentence under the title: the bound at the truth, the guarantee, the paper verdicts."""
+    """One sentence under the title: for a paper's study the data's origin and the claims' verdicts
+    first, then the bound at the truth and the guarantee."""
     ex, parts = r.exact, []
+    if verdicts:
+        parts.append(f"On simulated data (true parameters from {TRUTH_SOURCE.get(r.config.robot, 'the paper')}): "
+                     f"{claims_summary(verdicts)}")
     if ex is not None and ex.evidence is not None and r.config.experiment.source != "simulate":
         parts.append(f"Under the bound e_max = {ex.bound_text()}, which no truth checks on measured data"
                      if ex.consistent else f"The data contradict the bound e_max = {ex.bound_text()}")
@@ -870,12 +887,10 @@ def _headline(r: StudyResult, verdicts: list[Claim]) -> str:
     if certs:
         parts.append("every guaranteed set contains the exact polytope" if all(c.contains_polytope for c in certs)
                      else "a guaranteed set MISSES part of the exact polytope")
-    if verdicts:
-        parts.append(claims_summary(verdicts))
     if not parts:
         return ""
-    text = "; ".join(parts) + "."
-    return text[0].upper() + text[1:]
+    parts = [parts[0][0].upper() + parts[0][1:]] + [p[0].lower() + p[1:] for p in parts[1:]]
+    return "; ".join(parts) + "."
 
 
 def study_page(r: StudyResult) -> Page:
@@ -1085,19 +1100,22 @@ def _physical_finding(ph) -> str:
     if ph.error is not None:
         return f"not computed: {ph.error.split(':')[0]} (see What failed)"
     iv = ph.intervals
-    tol = SAME_BOUND_RTOL * (iv["plain_hi"] - iv["plain_lo"])
+    tol = PHYSICS_GAIN_RTOL * (iv["plain_hi"] - iv["plain_lo"])
     beyond = (iv["phys_hi"] < iv["plain_hi"] - tol) | (iv["phys_lo"] > np.maximum(iv["plain_lo"], 0.0) + tol)
     sign_only = (iv["narrower"] == "yes") & ~beyond
-    text = (f"{int(beyond.sum())} of {len(iv)} exact intervals narrower beyond the sign constraint"
+    text = (f"{int(beyond.sum())} of {len(iv)} exact intervals narrower beyond the sign constraint (by more than "
+            f"{100 * PHYSICS_GAIN_RTOL:g} % of the width)"
             f"{' (' + ', '.join(iv.index[beyond]) + ')' if 0 < beyond.sum() <= 6 else ''}")
     if sign_only.any():
-        text += f"; {int(sign_only.sum())} only lose their negative part"
+        text += f"; {int(sign_only.sum())} only lose their negative part or less"
     return text + f" (mean width {ph.mean_width_ratio:.3g} x the plain width)"
 
 
 #: an exact bound that moved by less than this share of the plain interval's width has not moved
 #: (the conic solver's accuracy is about 1e-5 of the widths)
 SAME_BOUND_RTOL = 1e-4
+#: physics narrows an interval beyond the sign constraint when a bound moves by more than this share of its width
+PHYSICS_GAIN_RTOL = 1e-2
 
 
 def _identified_finding(r: StudyResult) -> str:
@@ -1134,10 +1152,11 @@ def _width_finding(r: StudyResult, certs: dict) -> tuple[str, str] | None:
         return None
     ident = identification(r) >= IDENTIFIED_FACTOR
     per_param = comparison[1]
-    raw = {lab: float(np.mean(c.width_ratio)) for lab, c in certs.items()}
     if not ident.any():
+        raw = {lab: float(np.mean(c.width_ratio)) for lab, c in certs.items()}
         return ("set width / exact width", "no parameter is identified, so the sets ∩ prior box equal the prior box "
                 "as the exact set does; raw sets: " + ", ".join(f"{lab} {x:.3g} x" for lab, x in raw.items()))
+    raw = {lab: float(np.mean(np.asarray(c.width_ratio)[ident])) for lab, c in certs.items()}
     cells = []
     for lab in certs:
         col = next((c for c in per_param if c.replace(" (unverified)", "") == lab), None)
