@@ -212,7 +212,7 @@ def test_lesson_runs_and_its_text_agrees_with_its_tables(script, tmp_path):
     <img> a decodable data: URI, no network URL, scripts allowed by hash only), opens with key
     points, has as many answers as exercises, frames of a stepper are >= 800 px wide and all of
     one size; then every claim of its text is compared with its own CSV tables."""
-    page = run_lesson(script, tmp_path / script.stem, fast=True)
+    page = run_lesson(script, tmp_path / script.stem, fast=True, notebook=False)  # as notebooks: test_notebooks.py
     parsed = _check_page(page)
     frames = [(src, width) for src, width, in_stepper in parsed.imgs if in_stepper]
     if parsed.steppers:
@@ -319,18 +319,18 @@ def test_series_styles_are_distinct():
 
 
 def test_runner_reports_a_failing_lesson_and_indexes_handouts(tmp_path):
-    """A lesson that raises gives StudyError with its traceback; run_lessons writes an index
-    linking the handouts it produced (checked on a tiny lesson written here)."""
+    """Run as plain scripts: a lesson that raises gives StudyError with its traceback; run_lessons
+    writes an index linking the handouts it produced (checked on a tiny lesson written here)."""
     d = tmp_path / "lessons"
     d.mkdir()
     (d / "lesson_bad.py").write_text("raise RuntimeError('boom')\n")
     with pytest.raises(StudyError, match="boom"):
-        run_lesson(d / "lesson_bad.py", tmp_path / "bad")
+        run_lesson(d / "lesson_bad.py", tmp_path / "bad", notebook=False)
     (d / "lesson_bad.py").unlink()
     (d / "lesson_ok.py").write_text(
         "from boundid.teaching import Handout, output_dir\n"
         "Handout('ok lesson').section('Exercises', 'none').write(output_dir('ok') / 'index.html')\n")
-    pages = run_lessons(d, tmp_path / "out", fast=True)
+    pages = run_lessons(d, tmp_path / "out", fast=True, notebook=False)
     assert pages == [tmp_path / "out" / "lesson_ok" / "index.html"]
     assert "lesson_ok/index.html" in (tmp_path / "out" / "index.html").read_text()
     with pytest.raises(InputError):

@@ -8,9 +8,19 @@ writes it to :func:`output_dir`. Two environment variables steer a lesson:
 * ``BOUNDID_TEACH_OUT``: the folder its handout goes to (default ``reports/teaching/<lesson>``);
 * ``BOUNDID_TEACH_FAST=1``: smaller settings (fewer samples and frames), for the tests.
 
-:func:`run_lessons` runs every lesson in a subprocess (a clean interpreter each, as a student
-would) and writes ``<out>/index.html`` linking the handouts. :func:`lessons_dir` finds the
-lessons when ``boundid teach`` is run from any folder.
+:func:`run_lessons` runs every lesson as a notebook (:func:`lesson_notebook` converts the script
+with jupytext, :func:`execute_notebook` runs it top to bottom with nbclient in a fresh kernel of
+this Python) and writes, per lesson, the handout ``index.html`` and the executed notebook
+``<lesson>.ipynb`` beside it, then ``<out>/index.html`` linking both. One run makes both, so the
+notebook's outputs are the numbers of the handout. :func:`run_lesson` with ``notebook=False`` runs
+the plain script instead, in a fresh interpreter. :func:`lessons_dir` finds the lessons when
+``boundid teach`` is run from any folder.
+
+In a notebook (an IPython kernel) importing this module also shows every matplotlib
+:class:`~matplotlib.figure.Figure` a cell creates below that cell (a list of figures, the frames
+of a stepper, as one animated PNG), and :func:`output_dir` without ``BOUNDID_TEACH_OUT`` is a
+folder of the system's temporary directory, so the handout cell writes the student's own
+handout there, never into the notebook's folder.
 """
 
 from __future__ import annotations
@@ -20,20 +30,25 @@ import hashlib
 import html
 import io
 import os
+import re
 import subprocess
 import sys
+import tempfile
+import weakref
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from html.parser import HTMLParser
 from pathlib import Path
 
 import pandas as pd
+from matplotlib.artist import Artist
 from matplotlib.figure import Figure
 from PIL import Image
 
 from boundid.errors import InputError, StudyError
 from boundid.report.figure_check import figure_problems
-from boundid.report.html import Page, Table, paragraphs, slug, write_index
-from boundid.report.output import check_out_dir, replace_folder
+from boundid.report.html import Page, Table, paragraphs, render_page, site_header, slug
+from boundid.report.output import check_out_dir, replace_folder, write_file_atomically
 from boundid.resources import find_folder
 
 OUT_ENV, FAST_ENV = "BOUNDID_TEACH_OUT", "BOUNDID_TEACH_FAST"
@@ -68,8 +83,14 @@ def fast_mode() -> bool:
 
 
 def output_dir(lesson: str) -> Path:
-    """Folder of a lesson's handout: ``$BOUNDID_TEACH_OUT`` or ``reports/teaching/<lesson>``."""
-    return Path(os.environ.get(OUT_ENV) or DEFAULT_OUT / lesson)
+    """Folder of a lesson's handout: ``$BOUNDID_TEACH_OUT``, else ``reports/teaching/<lesson>`` (a
+    script) or ``<temporary directory>/boundid-teaching/<lesson>`` (a notebook, whose own folder
+    must not fill with report folders)."""
+    if os.environ.get(OUT_ENV):
+        return Path(os.environ[OUT_ENV])
+    if _kernel() is not None:
+        return Path(tempfile.gettempdir()) / "boundid-teaching" / lesson
+    return DEFAULT_OUT / lesson
 
 
 def fmt(x: float, digits: int = 3) -> str:
@@ -405,36 +426,368 @@ def lessons(directory: str | Path | None = None) -> list[Path]:
     return sorted(lessons_dir(directory).glob("lesson*.py"))
 
 
-def run_lesson(script: str | Path, out_dir: str | Path, fast: bool = False, timeout: float = 600.0) -> Path:
-    """Run one lesson script with ``python`` (a fresh interpreter); returns its handout page.
+def run_lesson(script: str | Path, out_dir: str | Path, fast: bool = False, timeout: float = 600.0,
+               notebook: bool = True) -> Path:
+    """Run one lesson; returns its handout page ``<out_dir>/index.html``.
 
-    The handout is written into a fresh folder that replaces ``out_dir`` as a whole once the lesson
-    succeeded (:func:`boundid.report.output.replace_folder`: no file of an earlier run is left
-    behind, and a failed run leaves the previous handout as it was). Raises :class:`StudyError`
-    with the end of the script's stderr when it fails or writes no page.
+    ``notebook=True``: the lesson runs as a notebook (:func:`lesson_notebook`,
+    :func:`execute_notebook`, a fresh kernel started in the lesson's folder) and the executed
+    notebook is written beside the handout as ``<out_dir>/<lesson>.ipynb``; ``notebook=False``: the
+    script runs with ``python`` in a fresh interpreter, as ``python lesson.py`` would. The files
+    go into a fresh folder that replaces ``out_dir`` as a whole once the lesson succeeded
+    (:func:`boundid.report.output.replace_folder`: no file of an earlier run is left behind, and a
+    failed run leaves the previous handout as it was). Raises :class:`StudyError` when the lesson
+    fails (naming the cell, for a notebook) or writes no page. ``timeout``: seconds for the
+    script, or for each cell of the notebook.
     """
     script, out_dir = Path(script), Path(out_dir)
+    if notebook:
+        _notebook_tools()
     with replace_folder(out_dir) as tmp:
-        env = {**os.environ, OUT_ENV: str(tmp), FAST_ENV: "1" if fast else "0", "MPLBACKEND": "Agg"}
-        res = subprocess.run([sys.executable, str(script)], env=env, capture_output=True, text=True,
-                             timeout=timeout)
-        if res.returncode != 0 or not (tmp / "index.html").is_file():
-            raise StudyError(f"lesson {script.name} failed (exit {res.returncode}):\n{res.stderr[-3000:]}")
+        env = {**os.environ, OUT_ENV: str(Path(tmp).resolve()), FAST_ENV: "1" if fast else "0"}
+        if notebook:
+            nb = execute_notebook(lesson_notebook(script, fast), tmp, env=env, timeout=timeout, name=script.name)
+            _relative_paths(nb, tmp)
+            _write_notebook(nb, tmp / f"{script.stem}.ipynb")
+            if not (tmp / "index.html").is_file():
+                raise StudyError(f"lesson {script.name} ran as a notebook but wrote no handout: its last cell must "
+                                 "write the Handout to output_dir(...) / 'index.html'.")
+        else:
+            res = subprocess.run([sys.executable, str(script)], env={**env, "MPLBACKEND": "Agg"},
+                                 capture_output=True, text=True, timeout=timeout)
+            if res.returncode != 0 or not (tmp / "index.html").is_file():
+                raise StudyError(f"lesson {script.name} failed (exit {res.returncode}):\n{res.stderr[-3000:]}")
     return out_dir / "index.html"
 
 
 def run_lessons(directory: str | Path | None = None, out: str | Path = DEFAULT_OUT, fast: bool = False,
-                only: list[str] | None = None) -> list[Path]:
+                only: list[str] | None = None, notebook: bool = True) -> list[Path]:
     """Run the lessons (all, or those whose file stem contains one of ``only``), writing each
-    handout to ``<out>/<stem>/index.html`` and ``<out>/index.html`` linking them."""
+    handout to ``<out>/<stem>/index.html``, its executed notebook to ``<out>/<stem>/<stem>.ipynb``
+    (unless ``notebook=False``) and ``<out>/index.html`` linking them."""
     found = lessons(directory)
     scripts = [s for s in found if not only or any(o in s.stem for o in only)]
     if not scripts:
         raise InputError(f"no lesson matches {only}; lessons: {[s.stem for s in found]}.")
     check_out_dir(out, tuple(s.stem for s in scripts))
-    pages = [run_lesson(s, Path(out) / s.stem, fast) for s in scripts]
-    write_index(out, None, title="boundid teaching kit",
-                description="Handouts of the boundid lessons: feasible sets, OBE, the factorized form, "
-                            "statistics versus bounds, and the direct-drive arm's regression models. Each handout "
-                            "is one self-contained page (it works offline) with exercises and an instructor key.")
+    if notebook:
+        _notebook_tools()  # before the first lesson: a missing package is one line, not a traceback
+    pages = [run_lesson(s, Path(out) / s.stem, fast, notebook=notebook) for s in scripts]
+    write_kit_index(out)
     return pages
+
+
+KIT_DESCRIPTION = ("Handouts of the boundid lessons: feasible sets, OBE, the factorized form, statistics versus "
+                   "bounds, and the direct-drive arm's regression models. Each handout is one self-contained page "
+                   "(it works offline) with exercises and an instructor key; beside it, the lesson as a Jupyter "
+                   "notebook (.ipynb) that a student opens, runs top to bottom and changes.")
+
+
+class _Head(HTMLParser):
+    """<title> and <meta name="description"> of a written handout."""
+
+    def __init__(self):
+        super().__init__()
+        self.title, self.description, self._in_title = "", "", False
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        self._in_title = tag == "title"
+        if tag == "meta" and a.get("name") == "description":
+            self.description = a.get("content") or ""
+
+    def handle_endtag(self, tag):
+        self._in_title = False
+
+    def handle_data(self, data):
+        if self._in_title:
+            self.title += data
+
+
+def write_kit_index(out: str | Path = DEFAULT_OUT, title: str = "boundid teaching kit") -> Path:
+    """``<out>/index.html``: every handout ``<out>/*/index.html`` with its title and description,
+    a link to it and, where there is one, to the lesson's notebook ``<out>/<lesson>/<lesson>.ipynb``."""
+    root = Path(out)
+    items = []
+    for page in sorted(root.glob("*/index.html")):
+        name, head = page.parent.name, _Head()
+        head.feed(page.read_text(encoding="utf-8"))
+        links = [("handout (HTML page)", f"{name}/index.html")]
+        if (page.parent / f"{name}.ipynb").is_file():
+            links.append(("notebook (.ipynb: open it in Jupyter, run it, change it)", f"{name}/{name}.ipynb"))
+        more = "".join(f'<a href="{html.escape(h)}">{html.escape(label)}</a>' for label, h in links)
+        items.append(f'<div class="entry"><h3><a href="{html.escape(name)}/index.html">'
+                     f"{html.escape(head.title.strip() or name)}</a><code>{html.escape(name)}</code></h3>"
+                     f'{paragraphs(head.description)}<p class="links">{more}</p></div>')
+    root.mkdir(parents=True, exist_ok=True)
+    return write_file_atomically(root / "index.html", render_page(
+        title, paragraphs(KIT_DESCRIPTION) + "".join(items), description=KIT_DESCRIPTION,
+        header=site_header(title, "../index.html")))
+
+
+# --------------------------------------------------------------------------------- notebooks
+#: the kernel a lesson notebook names: the generic one every Jupyter has, so a student's opens it
+NOTEBOOK_KERNEL = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
+_INSTALL_FIX = "python -m pip install nbclient ipykernel"
+
+
+def _notebook_tools():
+    """(jupytext, nbformat, nbclient) or StudyError naming the install command (one line)."""
+    missing = []
+    for module in ("jupytext", "nbformat", "nbclient", "ipykernel", "jupyter_client"):
+        try:
+            __import__(module)
+        except ImportError:
+            missing.append(module)
+    if missing:
+        raise StudyError(f"the lessons run as notebooks and need {', '.join(missing)}, not installed in this Python "
+                         f"({sys.executable}): run `{_INSTALL_FIX} jupytext` (or `make install`).")
+    import jupytext
+    import nbclient
+    import nbformat
+
+    return jupytext, nbformat, nbclient
+
+
+def _cell_lines(text: str) -> list[int]:
+    """First line (1-based) of each cell of a percent-format script, as jupytext splits it: a cell
+    starts at each ``# %%`` line, and text before the first one (if any) is a cell of its own."""
+    lines = text.splitlines()
+    marks = [k + 1 for k, line in enumerate(lines) if line.startswith("# %%")]
+    if any(line.strip() for line in lines[:(marks[0] - 1) if marks else len(lines)]):
+        marks.insert(0, 1)
+    return marks
+
+
+def _title(nb) -> str:
+    for cell in nb.cells:
+        if cell.cell_type == "markdown":
+            m = re.search(r"^#\s+(.+)$", cell.source, re.M)
+            if m:
+                return m.group(1).strip()
+    return ""
+
+
+def lesson_notebook(script: str | Path, fast: bool = False):
+    """The lesson ``script`` as an nbformat v4 notebook (jupytext), not executed: the lesson's own
+    cells, after one added markdown cell saying what the lesson is and how to run it; metadata
+    naming the generic ``python3`` kernel (no jupytext pairing); cell ids ``cell-<k>``. Each
+    lesson cell keeps the line it starts at in the script as ``metadata.boundid.line`` until the
+    notebook is written."""
+    jupytext, nbformat, _ = _notebook_tools()
+    script = Path(script)
+    text = script.read_text(encoding="utf-8")
+    nb = jupytext.reads(text, fmt="py:percent")
+    lines = _cell_lines(text)
+    if len(lines) == len(nb.cells):
+        for cell, line in zip(nb.cells, lines, strict=True):
+            cell.metadata["boundid"] = {"line": line}
+    title = _title(nb) or script.stem
+    settings = ("It was run here with the fast settings (`BOUNDID_TEACH_FAST=1`: fewer samples and frames); "
+                "without that variable it uses the full settings of the handout." if fast else
+                "It was run here with the full settings, the numbers of its handout; start Jupyter with "
+                "`BOUNDID_TEACH_FAST=1` set for smaller, quicker settings.")
+    where = " (in `studies/teaching/` of the boundid repository)" if script.parent.parts[-2:] == LESSONS_SUBDIR.parts \
+        else ""
+    intro = (f"**boundid teaching kit, {title}.** This notebook is the lesson script `{script.name}`{where}, "
+             "converted to a notebook and run top to bottom: the outputs below are that run's. "
+             f"{settings}\n\n"
+             "**To run it**, open it in Jupyter (JupyterLab, Notebook or VS Code) with a Python 3 kernel that can "
+             "`import boundid` (the repository's `.venv` after `make install`), then *Restart the kernel and run "
+             "all cells*. Change a number (the settings are in the first code cell) and run the cells again: every "
+             "figure and table below follows. The last cell writes the handout of your run, an HTML page, to a "
+             "temporary folder and prints its path; the handout of the run shown here is `index.html` beside this "
+             "notebook.")
+    nb.cells.insert(0, nbformat.v4.new_markdown_cell(intro))
+    for k, cell in enumerate(nb.cells):  # stable ids (not random ones): a rerun changes only what changed
+        cell.id = f"cell-{k}"
+    nb.metadata = nbformat.from_dict({"kernelspec": dict(NOTEBOOK_KERNEL),
+                                      "language_info": {"name": "python"}})
+    nbformat.validate(nb)
+    return nb
+
+
+def _kernel_manager():
+    """A kernel manager that starts ``python -m ipykernel_launcher`` with this Python
+    (``sys.executable``), whatever the ``python3`` kernel spec found on the Jupyter path says."""
+    from jupyter_client.kernelspec import KernelSpec, KernelSpecManager
+    from jupyter_client.manager import AsyncKernelManager
+
+    class _ThisPython(KernelSpecManager):
+        def get_kernel_spec(self, kernel_name, *args, **kwargs):
+            return KernelSpec(argv=[sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
+                              name=NOTEBOOK_KERNEL["name"], display_name=NOTEBOOK_KERNEL["display_name"],
+                              language="python")
+
+    return AsyncKernelManager(kernel_name=NOTEBOOK_KERNEL["name"], kernel_spec_manager=_ThisPython())
+
+
+_ANSI = re.compile(r"\x1b\[[0-9;]*m")
+
+
+def execute_notebook(nb, cwd: str | Path, env: Mapping[str, str] | None = None, timeout: float = 600.0,
+                     name: str = "notebook"):
+    """Run ``nb`` top to bottom with nbclient in a fresh kernel of this Python started in ``cwd``
+    (environment ``env``, default this process's); returns it with its outputs. A cell that raises,
+    a cell running longer than ``timeout`` seconds or a kernel that dies gives a one-line
+    :class:`StudyError` naming ``name``, the code cell (its number In [k]) and its line in the
+    script."""
+    _, _, nbclient = _notebook_tools()
+    from nbclient.exceptions import CellExecutionError, CellTimeoutError, DeadKernelError
+
+    env = dict(os.environ if env is None else env)
+    env.pop("MPLBACKEND", None)  # the kernel's default (inline), as in a student's Jupyter
+    env.setdefault("PYDEVD_DISABLE_FILE_VALIDATION", "1")  # no debugger warning on the kernel's stderr
+    client = nbclient.NotebookClient(nb, km=_kernel_manager(), timeout=timeout, startup_timeout=120,
+                                     kernel_name=NOTEBOOK_KERNEL["name"], allow_errors=False,
+                                     record_timing=False, resources={"metadata": {"path": str(cwd)}})
+    with tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace") as log:  # the kernel's own output
+        try:
+            client.execute(env=env, stdout=log, stderr=log)
+        except (CellExecutionError, CellTimeoutError, DeadKernelError) as exc:
+            tail = _log_tail(log) if isinstance(exc, DeadKernelError) else ""
+            raise StudyError(_failure(nb, name, exc, timeout) + (f" (kernel output: {tail})" if tail else "")) \
+                from None
+        except (RuntimeError, TimeoutError) as exc:  # no kernel: ipykernel broken, startup timed out
+            tail = _log_tail(log)
+            raise StudyError(f"lesson {name}: no kernel of {sys.executable} could be started "
+                             f"({type(exc).__name__}: {' '.join(str(exc).split())[:200]}"
+                             + (f"; kernel output: {tail}" if tail else "") + f"); try `{_INSTALL_FIX}`.") from None
+        finally:
+            nb.metadata.get("kernelspec", {}).update(NOTEBOOK_KERNEL)
+    return nb
+
+
+def _log_tail(log) -> str:
+    """The end of what the kernel process printed, on one line, without ipykernel's TCP warning."""
+    log.seek(0)
+    lines = [ln for ln in log.read().splitlines() if "running over TCP without encryption" not in ln]
+    return " ".join(" ".join(lines).split())[-300:]
+
+
+def _failure(nb, name: str, exc: BaseException, timeout: float) -> str:
+    """One line: which lesson, which code cell (In [k]) at which script line, and why."""
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    failed = next((c for c in code if any(o.get("output_type") == "error" for o in c.get("outputs", ()))), None)
+    if failed is None:  # a timeout or a dead kernel: the last code cell that started
+        failed = next((c for c in reversed(code) if c.get("execution_count") is not None), None)
+    if failed is None:
+        return f"lesson {name} failed to run as a notebook: {type(exc).__name__}: {' '.join(str(exc).split())[:300]}"
+    k = code.index(failed) + 1
+    first = next((ln.strip() for ln in failed.source.splitlines() if ln.strip()), "")
+    where = f"code cell {k} (In [{k}]"
+    line = failed.metadata.get("boundid", {}).get("line")
+    if line is not None:
+        err = next((o for o in failed.outputs if o.get("output_type") == "error"), None)
+        in_cell = None
+        if err is not None:  # "Cell In[k], line n" of the traceback: the line within the cell
+            hits = re.findall(r"Cell In\[\d+\], line (\d+)", _ANSI.sub("", "\n".join(err.get("traceback", []))))
+            in_cell = int(hits[-1]) if hits else None
+        where += f", line {line + (in_cell or 1)} of {name}" if in_cell else f", starting at line {line + 1} of {name}"
+    where += f": `{first[:60]}`)"
+    err = next((o for o in failed.get("outputs", ()) if o.get("output_type") == "error"), None)
+    if err is not None:
+        why = f"{err.get('ename')}: {' '.join(str(err.get('evalue', '')).split())[:300]}"
+    elif type(exc).__name__ == "CellTimeoutError":
+        why = f"it ran longer than {timeout:g} s"
+    else:
+        why = f"{type(exc).__name__}: {' '.join(str(exc).split())[:200]}"
+    return f"lesson {name} failed in {where}: {why}"
+
+
+def _relative_paths(nb, folder: Path) -> None:
+    """Outputs name files of the lesson's folder relative to it (the notebook's own folder), not by
+    the temporary path the run wrote them to."""
+    prefixes = sorted({str(folder) + os.sep, str(folder.resolve()) + os.sep}, key=len, reverse=True)
+    for cell in nb.cells:
+        for out in cell.get("outputs", ()):
+            if "text" in out:
+                for pre in prefixes:
+                    out["text"] = out["text"].replace(pre, "")
+            for mime, value in out.get("data", {}).items():
+                if mime.startswith("text/") and isinstance(value, str):
+                    for pre in prefixes:
+                        value = value.replace(pre, "")
+                    out["data"][mime] = value
+
+
+def _write_notebook(nb, path: Path) -> Path:
+    _, nbformat, _ = _notebook_tools()
+    for cell in nb.cells:
+        cell.metadata.pop("boundid", None)
+    nbformat.validate(nb)
+    nbformat.write(nb, str(path))
+    return path
+
+
+# --------------------------------------------------------------------------------- in a kernel
+def _kernel():
+    """The IPython shell of the Jupyter kernel this code runs in, or None (a script, a terminal)."""
+    ipython = sys.modules.get("IPython")
+    shell = ipython.get_ipython() if ipython is not None else None
+    return shell if getattr(shell, "kernel", None) is not None else None
+
+
+_shown: weakref.WeakSet = weakref.WeakSet()
+
+
+def _figure_png(fig: Figure) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", metadata={"Software": None})
+    _shown.add(fig)
+    return buf.getvalue()
+
+
+def _frames_png(frames: Sequence[Figure], delay_ms: int = 900, colors: int = 96) -> bytes:
+    """Frames of one size as one animated PNG (browsers and Jupyter play it), in one palette of
+    ``colors`` colours drawn from all frames (a few hundred kB for twenty frames)."""
+    imgs = [Image.open(io.BytesIO(_figure_png(f))).convert("RGB") for f in frames]
+    w, h = imgs[0].size
+    every = Image.new("RGB", (w, h * len(imgs)))
+    for k, img in enumerate(imgs):
+        every.paste(img, (0, k * h))
+    palette = every.quantize(colors=colors, method=Image.Quantize.MEDIANCUT)
+    frames_p = [img.quantize(palette=palette) for img in imgs]
+    out = io.BytesIO()
+    frames_p[0].save(out, format="PNG", save_all=True, append_images=frames_p[1:], duration=delay_ms, loop=0)
+    return out.getvalue()
+
+
+def _show_new_figures(*_args) -> None:
+    """After a cell: show the figures created by it that are bound to a name of the notebook and
+    not yet shown (pyplot's own figures are left to the inline backend); a list of figures of one
+    size (the frames of a stepper) shows as one animated PNG."""
+    shell = _kernel()
+    if shell is None:
+        return
+    from IPython.display import display
+
+    for value in list(shell.user_ns.values()):
+        if isinstance(value, list | tuple) and len(value) > 1 and all(isinstance(f, Figure) for f in value):
+            if any(f not in _shown and f.canvas.manager is None for f in value):
+                sizes = {tuple(f.get_size_inches()) + (f.dpi,) for f in value}
+                if len(sizes) == 1:
+                    display({"image/png": _frames_png(value)}, raw=True)
+                else:
+                    for f in value:
+                        display({"image/png": _figure_png(f)}, raw=True)
+    for value in list(shell.user_ns.values()):
+        if isinstance(value, Figure) and value not in _shown and value.canvas.manager is None:
+            display({"image/png": _figure_png(value)}, raw=True)
+
+
+def _in_kernel_setup() -> None:
+    """In a Jupyter kernel: a figure as a cell's value shows as a PNG, other matplotlib artists
+    (a title, a legend) as a cell's value show nothing, and figures a cell creates show below it
+    (:func:`_show_new_figures`). Registered once per kernel."""
+    shell = _kernel()
+    if shell is None or getattr(shell, "_boundid_teaching", False):
+        return
+    shell._boundid_teaching = True
+    shell.display_formatter.formatters["image/png"].for_type(Figure, _figure_png)
+    # a cell ending in ax.legend(...) or fig.supylabel(...) shows no "Text(0.02, 0.5, ...)" line
+    shell.display_formatter.ipython_display_formatter.for_type(Artist, lambda _artist: None)
+    shell.events.register("post_run_cell", _show_new_figures)
+
+
+_in_kernel_setup()
