@@ -27,7 +27,7 @@ install: $(STAMP)
 lock:
 	test -x $(UV) || ($(PYTHON) -m venv build/uv && build/uv/bin/python -m pip install -q uv==0.13.8)
 	for v in 3.11 3.12; do \
-	  $(UV) pip compile pyproject.toml requirements/build.in --extra dev --generate-hashes --no-header \
+	  $(UV) pip compile pyproject.toml requirements/build.in --extra dev --extra docs --generate-hashes --no-header \
 	    --python-version $$v --python-platform x86_64-manylinux_2_28 \
 	    -o requirements/lock-py$$(echo $$v | tr -d .).txt || exit 1; \
 	done
@@ -74,9 +74,17 @@ report: $(STAMP)
 campaign: $(STAMP)
 	$(BIN)/boundid campaign studies/direct_drive_rls.toml --replicates 20 --workers 2
 
-# docs/study-files.md, every study-file key, generated from the study-file parser (tests/test_docs.py checks it)
+# docs/study-files.md, every study-file key, generated from the study-file parser (tests/test_docs.py checks it),
+# then the documentation site: Sphinx (docs/site/, the `docs` extra of the lock) into reports/docs/, built
+# from scratch with every warning an error (a broken reference to a boundid name, a public name without a
+# docstring); the API pages' stubs are generated into docs/site/api/generated/ (not in git); the lessons run first
+# as notebooks in fresh kernels (fast settings; a cell that raises fails the build) and the site renders them
 docs: $(STAMP)
 	$(BIN)/python -m boundid.docs --out docs/study-files.md
+	rm -rf reports/docs docs/site/api/generated build/docs-doctrees build/docs-lessons docs/site/lessons/notebooks
+	$(BIN)/boundid teach --fast --out build/docs-lessons
+	mkdir -p docs/site/lessons/notebooks && cp build/docs-lessons/teaching/*/*.ipynb docs/site/lessons/notebooks/
+	$(THREADS) $(BIN)/python -m sphinx -b html -E -W --keep-going -q -j 2 -d build/docs-doctrees docs/site reports/docs
 
 # the lessons in studies/teaching, one self-contained handout each in reports/teaching/
 teach: $(STAMP)

@@ -86,7 +86,7 @@ def _rk4_generic(robot, q, qd, tau, dt, substeps, coulomb_width):
 def zoh_step(robot, q, qd, tau, dt: float, substeps: int = 4, coulomb_width: float = 0.0, hint=None):
     """Advance one state (q, qd) (n,) by dt s under constant torque tau (n,); returns (q, qd, hint).
 
-    The robot's compiled stepper when it offers one (:meth:`RobotModel.zoh_stepper`; ``hint`` is
+    The robot's compiled stepper when it offers one (:meth:`~boundid.models.RobotModel.zoh_stepper`; ``hint`` is
     its warm start, e.g. the H4's pose), else ``substeps`` RK4 steps of its forward dynamics.
     """
     stepper = robot.zoh_stepper()

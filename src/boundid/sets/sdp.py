@@ -382,7 +382,7 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
 
     ``strips`` (default: every strip of P) is the pool. The S-procedure is solved by column
     generation on a working set of tightened strips: after each SDP the dual of its LMI prices
-    every pool strip (:func:`_reduced_costs`). A strip whose exact extent is unknown is priced
+    every pool strip (:func:`~boundid.sets.sdp._reduced_costs`). A strip whose exact extent is unknown is priced
     with the interval spanned by the points of P found so far, which can only overstate its
     reduced cost (the true extent is wider); the candidates are then tightened exactly by LP
     (batched supports, which also add points) and priced again. When some strip helps, every

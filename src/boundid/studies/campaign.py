@@ -111,6 +111,8 @@ def one_thread():
 
 
 def replicate_path(data_dir: Path, scenario: str, chash: str, replicate: int) -> Path:
+    """The Parquet file of one replicate: ``<scenario>__<config hash>__r<replicate, 6 digits>.parquet``
+    in ``data_dir`` (the hash of :func:`config_hash`: a changed study writes new files)."""
     return Path(data_dir) / f"{scenario}__{chash}__r{replicate:06d}.parquet"
 
 

@@ -100,6 +100,11 @@ def read_ellipsoid(path: str | Path) -> Ellipsoid:
 
 def certify_files(regression: str | Path, ellipsoid: str | Path, e_max: float | None = None,
                   sdp: bool = True) -> Certificate:
+    """``boundid certify``: the :class:`~boundid.estimators.Certificate` of the ellipsoid in the file
+    ``ellipsoid`` (:func:`read_ellipsoid`) against the exact polytope of the regression in the file
+    ``regression`` (:func:`read_regression`; ``e_max`` one bound for every row instead of its
+    e_max column); ``sdp=False`` skips the SDP volume comparison. Raises InputError on a file
+    that cannot be read or an ellipsoid of another dimension than the regression."""
     W, y, e = read_regression(regression, e_max)
     E = read_ellipsoid(ellipsoid)
     if E.dim != W.shape[1]:

@@ -68,6 +68,12 @@ class MeasuredData:
 
 @dataclass(frozen=True)
 class ExperimentConfig:
+    """The study's ``[experiment]`` table: where the data come from (``source``: "simulate" or
+    "measured", the recording then in ``measured``), how a simulated experiment is run (``control``,
+    duration, sample period, Coulomb smoothing width, torque noise, encoder resolution, structural
+    error, the validation experiment's duration) and the robot's experiment ``options``. Every key
+    is described in docs/study-files.md."""
+
     source: str  # "simulate" | "measured"
     control: str = "open_loop"  # "open_loop" (paper 001 torques) | "closed_loop" (H4 PI) | "tracking" (URDF arms)
     duration_s: float = 10.0
@@ -176,6 +182,12 @@ class ExactConfig:
 
 @dataclass(frozen=True)
 class StudyConfig:
+    """A study file, parsed and validated by :func:`load_study`: the study's name, title,
+    description and seed, the robot and its options, the experiment, preprocessing, prior,
+    regression models, estimators, the exact-optima settings (``[exact]``), the paper's metadata,
+    the published tables and the file it was read from. Every key is described in
+    docs/study-files.md."""
+
     name: str
     title: str
     description: str

@@ -13,7 +13,8 @@ from boundid.studies.config import PreprocessingConfig
 
 
 def inverse_dynamic_rows(model: RobotModel, rec: Recording, pp: PreprocessingConfig) -> Regression:
-    """IDIM rows by the H4 paper's pipeline (:func:`identification_regression`, with the analytic
+    """IDIM rows by the H4 paper's pipeline
+    (:func:`~boundid.experiments.h4_pipeline.identification_regression`, with the analytic
     Jdot rather than the paper's central difference, so any robot model works): zero-phase
     low-pass and central differences for qd, qdd; torques and regressor columns low-pass filtered
     and decimated together ("parallel filtering"); the first and last ``3 / f_c`` seconds, where the

@@ -110,6 +110,10 @@ def _mass_matrix_pd(model: RobotModel, q: np.ndarray, theta: np.ndarray) -> bool
 
 
 def resimulate(cfg: StudyConfig, model: RobotModel, data: StudyData, label: str, theta: np.ndarray) -> Resimulation:
+    """The study's open-loop experiment simulated again with the identified ``theta`` (the same
+    excitation torques, duration and sample period), and the RMS error of its joint angles against
+    the recorded ones. A failure is returned with its reason, never raised: M(q) not positive definite
+    along the recorded trajectory (no physical robot), or a simulation that fails."""
     exp, rec = cfg.experiment, data.recording
     try:
         if not _mass_matrix_pd(model, rec.q, theta):
@@ -221,10 +225,11 @@ SWEEP_SEEDS = 20  # noise draws of the OBE breakdown sweep
 
 
 def second_truth(cfg: StudyConfig, model: RobotModel) -> SecondTruth | None:
-    """:func:`best_approximation` of the robot the study simulates by ``model``, on the random
-    stream ``np.random.default_rng([cfg.seed, 1])`` (independent of the experiment's); None for
-    measured data (no simulator). The H4's simulator is :func:`simulated_truth` (arms, rods, cogging);
-    the open-loop arm's is ``model`` itself."""
+    """:func:`~boundid.experiments.best_approximation.best_approximation` of the robot the study
+    simulates by ``model``, on the random stream ``np.random.default_rng([cfg.seed, 1])``
+    (independent of the experiment's); None for measured data (no simulator). The H4's simulator is
+    :func:`~boundid.experiments.h4_pipeline.simulated_truth` (arms, rods, cogging); the open-loop
+    arm's is ``model`` itself."""
     from boundid.experiments.best_approximation import best_approximation
 
     exp = cfg.experiment
