@@ -136,7 +136,7 @@ def test_empty_site_says_which_command_writes_each_part(tmp_path):
     text = index.read_text()
     for command in ("make report", "make campaign", "make teach", "make bench"):
         assert command in text
-    assert _links(index).hrefs == ["#studies", "#campaigns", "#teaching", "#benchmarks"]
+    assert _links(index).hrefs == ["#papers", "#studies", "#campaigns", "#teaching", "#benchmarks"]
 
 
 def test_folded_section_and_findings_box(tmp_path):

@@ -13,9 +13,10 @@ Every page opens with a header (:func:`site_header`): the way back to the site i
 (``reports/index.html``) and the files of the page (its data files, the CSV and LaTeX of every
 table, the PNG and SVG of every figure, listed in full in its last section, "Files").
 
-:func:`write_site_index` writes ``reports/index.html``: every study, campaign, lesson and the
-benchmark page found under ``reports/``, each with its full description (the page's
-``<meta name="description">``). :func:`write_index` writes the index of one group of pages
+:func:`write_site_index` writes ``reports/index.html``: what boundid is and what the studies found
+(:mod:`boundid.report.front_page`: a figure across studies, their verdicts, the papers), then every
+study, campaign, lesson and the benchmark page found under ``reports/``, each with its full
+description (the page's ``<meta name="description">``). :func:`write_index` writes the index of one group of pages
 (the teaching kit).
 
 The site index also links two pages it writes beside itself (:func:`write_site_pages`):
@@ -679,6 +680,16 @@ _SITE_INTRO = ("Every page is self-contained (figures embedded, no network), so 
                "every figure). Each boundid command that writes pages (report, run, campaign, teach, bench) "
                "rewrites this index from the pages it finds.")
 
+#: the documentation site, built into the reports folder by its own command, linked when present
+DOCS_DIR = "docs"
+DOCS_PAGE = f"{DOCS_DIR}/index.html"
+
+# the front matter's findings table: failed gates stand out
+_INDEX_CSS = """
+table.findings-table td.fail { color: #b33c00; font-weight: 600; }
+table.findings-table td.prose { min-width: 12rem; }
+"""
+
 _ABSENT = {"studies": "No study page yet: make report (or boundid run <study file>) writes them.",
            "campaigns": "No campaign yet: make campaign (boundid campaign <study file>) runs the Monte Carlo "
                         "replicates of a study's noise scenarios and writes its page.",
@@ -719,24 +730,31 @@ def write_site_pages(reports_dir: str | Path, names: Sequence[str] = (GLOSSARY_P
 
 
 def write_site_index(reports_dir: str | Path, title: str = "boundid reports") -> Path:
-    """Write ``<reports_dir>/index.html``: every page found under ``reports_dir``, each with its
-    full description (its meta description), in four sections:
+    """Write ``<reports_dir>/index.html``. It opens with the front matter
+    (:func:`boundid.report.front_page.front_matter`): what boundid is, what the studies found in a
+    few sentences, a figure of every study's guaranteed sets against its exact LP bounds (read from
+    each ``results.csv``; its PNG, SVG and CSV written beside the index), a table of each study's
+    ``verdict.json`` and the papers reproduced, cited in full. Then every page found under
+    ``reports_dir``, each with its full description (its meta description), in four sections:
 
     - studies: ``<name>/index.html`` (with links to its ``results.csv`` and campaign, if present);
     - campaigns: ``<name>/campaign/index.html``;
     - the teaching kit: ``teaching/index.html`` and each ``teaching/<lesson>/index.html``;
     - benchmarks: ``benchmarks/index.html``;
 
-    and, once there is a page, in a last section, the glossary and the references, written beside it
-    by :func:`write_site_pages`. A section with no page says which command writes it. Nothing but
-    the pages is read.
+    and, once there is a page, in a last section, the documentation (``docs/index.html``, when it
+    exists), the glossary and the references, the last two written beside it by
+    :func:`write_site_pages`. A section with no page says which command writes it.
     """
+    from boundid.report.front_page import front_matter  # it reads the studies' verdict files
+
     root = Path(reports_dir)
     root.mkdir(parents=True, exist_ok=True)
     groups: dict[str, list[str]] = {k: [] for k in _ABSENT}
+    studies: list[str] = []
     for folder in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")):
         page = folder / "index.html"
-        if folder.name in (TEACHING_DIR, BENCHMARKS_DIR) or not page.is_file():
+        if folder.name in (TEACHING_DIR, BENCHMARKS_DIR, DOCS_DIR) or not page.is_file():
             continue
         links = [("results.csv", f"{folder.name}/results.csv")] if (folder / "results.csv").is_file() else []
         campaign = folder / CAMPAIGN_DIR / "index.html"
@@ -746,6 +764,7 @@ def write_site_index(reports_dir: str | Path, title: str = "boundid reports") ->
             groups["campaigns"].append(_entry(campaign.relative_to(root).as_posix(), c_title or folder.name,
                                               c_text, folder.name, [("study page", f"{folder.name}/index.html")]))
         s_title, s_text = _read_head(page)
+        studies.append(folder.name)
         groups["studies"].append(_entry(f"{folder.name}/index.html", s_title or folder.name, s_text, folder.name,
                                         links))
     kit = root / TEACHING_DIR / "index.html"
@@ -762,17 +781,28 @@ def write_site_index(reports_dir: str | Path, title: str = "boundid reports") ->
         groups["benchmarks"].append(_entry(f"{BENCHMARKS_DIR}/index.html", b_title or "benchmarks", b_text))
     site_pages = [p.name for p in write_site_pages(root)] if any(groups.values()) else []  # once a page needs them
     groups["reference"] = [_entry(name, _SITE_PAGES[name][0], _SITE_PAGES[name][1]) for name in site_pages]
+    docs = root / DOCS_PAGE
+    if docs.is_file():
+        d_title, d_text = _read_head(docs)
+        groups["reference"].insert(0, _entry(DOCS_PAGE, d_title or "Documentation", d_text))
+    front = front_matter(root, studies, refs_linked=REFERENCES_PAGE in site_pages)
     headings = {"studies": "Studies", "campaigns": "Monte Carlo campaigns", "teaching": "Teaching kit",
-                "benchmarks": "Benchmarks", "reference": "Glossary and references"}
+                "benchmarks": "Benchmarks",
+                "reference": ("Documentation, glossary" if docs.is_file() else "Glossary") + " and references"}
     headings = {k: h for k, h in headings.items() if k in _ABSENT or groups[k]}
-    nav = "<nav>" + "".join(f'<a href="#{k}">{h}</a>' for k, h in headings.items()) + "</nav>"
-    sections = [f'<section id="{k}"><h2>{h}</h2>'
-                + ("".join(groups[k]) or f'<p class="absent">{html.escape(_ABSENT[k])}</p>') + "</section>"
-                for k, h in headings.items()]
+    nav = ("<nav>" + "".join(f'<a href="#{k}">{html.escape(h)}</a>'
+                             for k, h in [*((k, h) for k, (h, _) in front.sections.items()), *headings.items()])
+           + "</nav>")
+    sections = [f'<section id="{k}"><h2>{html.escape(h)}</h2>{body}</section>'
+                for k, (h, body) in front.sections.items()]
+    sections.append(_paragraphs(_SITE_INTRO))
+    sections += [f'<section id="{k}"><h2>{h}</h2>'
+                 + ("".join(groups[k]) or f'<p class="absent">{html.escape(_ABSENT[k])}</p>') + "</section>"
+                 for k, h in headings.items()]
     out = root / "index.html"
-    write_file_atomically(out, render_page(title, _paragraphs(_SITE_INTRO) + nav + "".join(sections),
-                                           description=_SITE_INTRO,
-                                           header=site_header(title, None)))
+    write_file_atomically(out, render_page(title, front.lead + nav + "".join(sections),
+                                           description=f"{front.description}\n\n{_SITE_INTRO}",
+                                           header=site_header(title, None), css=_CSS + _INDEX_CSS))
     return out
 
 
