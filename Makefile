@@ -85,6 +85,7 @@ docs: $(STAMP)
 	$(BIN)/boundid teach --fast --out build/docs-lessons
 	mkdir -p docs/site/lessons/notebooks && cp build/docs-lessons/teaching/*/*.ipynb docs/site/lessons/notebooks/
 	$(THREADS) $(BIN)/python -m sphinx -b html -E -W --keep-going -q -j 2 -d build/docs-doctrees docs/site reports/docs
+	$(BIN)/python -c "from boundid.report.html import write_site_index; write_site_index('reports')"  # links the site
 
 # the lessons in studies/teaching, one self-contained handout each in reports/teaching/
 teach: $(STAMP)

@@ -226,6 +226,10 @@ def shot_name(page: Path, root: Path) -> str:
     return "__".join(page.parent.relative_to(root).parts) or "index"
 
 
+#: the documentation site's folder under the reports folder (``make docs``)
+DOCS_DIR = "docs"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m boundid.report.browser", description=__doc__.split("\n\n")[0])
     ap.add_argument("reports", nargs="?", default="reports", help="folder searched for **/index.html")
@@ -237,7 +241,9 @@ def main(argv: list[str] | None = None) -> int:
         print("no Chromium found: install it (Debian: apt-get install -y --no-install-recommends chromium) "
               "or set BOUNDID_CHROMIUM to the executable.", file=sys.stderr)
         return 2
-    pages = sorted(root.glob("**/index.html"))
+    # the report pages, each self-contained; the documentation site (make docs: Sphinx, its own _static/
+    # folder and search) is a site of its own, not checked page by page here
+    pages = sorted(p for p in root.glob("**/index.html") if p.relative_to(root).parts[0] != DOCS_DIR)
     if not pages:
         print(f"no index.html under {root}/: build the reports first (make report).", file=sys.stderr)
         return 2
