@@ -38,6 +38,13 @@ RELAXED_TIME_LIMIT_S = 5.0
 class ExactResult:
     """The exact optima of one regression's feasible polytope (with the prior box).
 
+    regression: its name; e_max: the bound on its rows, one number or (N,) per row, in the
+    regression's unit; polytope: the feasible polytope; gamma_star: the smallest factor of e_max
+    (row by row) some parameter vector of the prior box satisfies on every row (<= 1: the data respect
+    the bound); evidence: gamma* in the regression's unit three ways
+    (:class:`boundid.studies.bounds.GammaStar`, computed for a rule and for measured data, else
+    None); rule: the bound rule, if any;
+    outliers: the minimum number of rows to drop when the data contradict the bound;
     truth_error_ratio: max_k |y_k - w_k^T theta_true| / e_max (simulated data; <= 1 means the bound
     really holds, so every guaranteed set must contain the truth); truth_violations: rows where it does not;
     bounds: exact LP parameter bounds (None if the data are inconsistent with the bounds);
