@@ -81,10 +81,11 @@ campaign: $(STAMP)
 # as notebooks in fresh kernels (fast settings; a cell that raises fails the build) and the site renders them
 docs: $(STAMP)
 	$(BIN)/python -m boundid.docs --out docs/study-files.md
-	rm -rf reports/docs docs/site/api/generated build/docs-doctrees build/docs-lessons docs/site/lessons/notebooks
+	rm -rf reports/docs docs/site/api/generated build/docs-doctrees build/docs-lessons docs/site/lessons/notebooks build/docs-site
 	$(BIN)/boundid teach --fast --out build/docs-lessons
 	mkdir -p docs/site/lessons/notebooks && cp build/docs-lessons/teaching/*/*.ipynb docs/site/lessons/notebooks/
-	$(THREADS) $(BIN)/python -m sphinx -b html -E -W --keep-going -q -j 2 -d build/docs-doctrees docs/site reports/docs
+	$(THREADS) $(BIN)/python -m sphinx -b html -E -W --keep-going -q -j 2 -d build/docs-doctrees docs/site build/docs-site/html
+	cp -r build/docs-site/html reports/docs  # built beside, not in, reports/: myst-nb writes a jupyter_execute/ next to its output
 	$(BIN)/python -c "from boundid.report.html import write_site_index; write_site_index('reports')"  # links the site
 
 # the lessons in studies/teaching, one self-contained handout each in reports/teaching/

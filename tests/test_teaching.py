@@ -202,8 +202,28 @@ def _claims_lesson5(page: Path):
     assert (m.group(1), m.group(2)) == (param, model) and _close(m.group(3), dev.loc[param, model])
 
 
+def _claims_lesson6(page: Path):
+    md, crit, sets = _md(page), _csv(page, "criteria", index_col=0), _csv(page, "sets", index_col=0)
+    m = re.search(r"cond\(W\) = ([\d.]+) for A and ([\d.]+) for B \(relative gap ([\d.e+-]+);", md)
+    assert _close(m.group(1), crit.loc["A", "cond(W)"], 7) and _close(m.group(2), crit.loc["B", "cond(W)"], 7)
+    gap = abs(crit.loc["B", "cond(W)"] / crit.loc["A", "cond(W)"] - 1)
+    assert float(m.group(3)) <= 1e-9 and gap <= 1e-9 and "NOT equal" not in md
+    m = re.search(r"A's (\d+) strips point in (\d+) directions, B's in (\d+)", md)
+    assert [int(g) for g in m.groups()[1:]] == list(crit["strip directions"])
+    m = re.search(r"B's feasible polygon has area ([\d.e+-]+) against ([\d.e+-]+) for A \(([\d.]+)x", md)
+    assert _close(m.group(1), sets.loc["B", "area"]) and _close(m.group(2), sets.loc["A", "area"])
+    assert _close(m.group(3), sets.loc["B", "area"] / sets.loc["A", "area"])
+    assert np.allclose(sets["area"], sets["area (Polytope.volume)"], rtol=1e-6)
+    m = re.search(r"LP widths ([\d.]+)x \(J\) and ([\d.]+)x \(mgl\)", md)
+    assert _close(m.group(1), sets.loc["B", "J width"] / sets.loc["A", "J width"])
+    assert _close(m.group(2), sets.loc["B", "mgl width"] / sets.loc["A", "mgl width"])
+    noisy = _csv(page, "noisy", index_col=0)
+    m = re.search(r"the median area of B is ([\d.]+)x that of A", md)
+    assert _close(m.group(1), noisy.loc["B", "median area"] / noisy.loc["A", "median area"])
+
+
 CLAIMS = {"lesson1": _claims_lesson1, "lesson2": _claims_lesson2, "lesson3": _claims_lesson3,
-          "lesson4": _claims_lesson4, "lesson5": _claims_lesson5}
+          "lesson4": _claims_lesson4, "lesson5": _claims_lesson5, "lesson6": _claims_lesson6}
 
 
 @pytest.mark.parametrize("script", LESSONS, ids=[s.stem for s in LESSONS])
