@@ -79,7 +79,7 @@ def test_known_coulomb_fit_recovers_the_truth_on_noise_free_rows():
     W = rng.standard_normal((4000, model.p)) * 10.0
     reg = Regression(W, W @ model.theta_true, np.full(4000, -1), np.arange(4000), np.arange(4000) * 1e-3,
                      "supplied_energy", tuple(model.param_names), "J")
-    cfg = SimpleNamespace(experiment=SimpleNamespace(source="simulate"))
+    cfg = SimpleNamespace(experiment=SimpleNamespace(source="simulate"), estimators=())  # the default RLS start
     k = known_coulomb_fit(cfg, model, {"supplied_energy": reg})
     assert [model.param_names[j] for j in k.coulomb] == ["fc1", "fc2"]
     np.testing.assert_allclose(k.center, model.theta_true, rtol=1e-6)

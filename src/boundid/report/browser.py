@@ -42,6 +42,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from boundid.report.html import DOCS_DIR  # the documentation site's folder under the reports folder
+
 WIDTH, FIRST_SCREEN = 1400, 900  # px: the window a reader opens the page in
 FULL_PAGE_MAX_PX = 16000  # Chromium's screenshots stop being reliable beyond ~16k px
 MIN_FRAME_PX = 800  # a stepper frame must show at least this wide
@@ -224,10 +226,6 @@ def check_page(page: Path, browser: str, shots: Path | None = None, name: str = 
 def shot_name(page: Path, root: Path) -> str:
     """File stem of a page's screenshots: reports/teaching/lesson1/index.html -> teaching__lesson1."""
     return "__".join(page.parent.relative_to(root).parts) or "index"
-
-
-#: the documentation site's folder under the reports folder (``make docs``)
-DOCS_DIR = "docs"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -282,11 +282,6 @@ def _p(text: str, cls: str = "") -> str:
     return f'<p{f" class={chr(34)}{cls}{chr(34)}" if cls else ""}>{html.escape(" ".join(text.split()))}</p>'
 
 
-def _listed(names: Sequence[str]) -> str:
-    names = list(names)
-    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
-
-
 def _range(lo: float, hi: float) -> str:
     return f"{lo:.3g} x" if f"{lo:.3g}" == f"{hi:.3g}" else f"{lo:.3g}–{hi:.3g} x"
 

@@ -11,8 +11,8 @@
 - Direct-drive arm ([DirectDrivePaper] Sect. 6.4): "in case of knowledge of the Coulomb coefficients
   and their use for friction compensation, the supplied energy model should have similar
   performances that the filtered power model": RLS on the supplied energy rows with the Coulomb
-  terms of the truth moved to the measured side (their columns dropped), as the paper's RLS starts:
-  theta(0) = 0, P(0) = 1000 I.
+  terms of the truth moved to the measured side (their columns dropped), started as the study's RLS
+  (the paper's: theta(0) = 0, P(0) = 1000 I).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import numpy as np
 
 from boundid.errors import RUN_FAILURES
 from boundid.estimators import Estimate
-from boundid.estimators.rls import RLS
+from boundid.estimators.rls import RLS, RLSOptions
 from boundid.experiments.regression import Regression
 from boundid.models import RobotModel
 from boundid.studies.config import StudyConfig
@@ -91,7 +91,7 @@ def bound_trials(cfg: StudyConfig, model: RobotModel, regressions: dict[str, Reg
 
 
 def known_coulomb_fit(cfg: StudyConfig, model: RobotModel, regressions: dict[str, Regression]) -> KnownCoulomb | None:
-    """[DirectDrivePaper] Sect. 6.4: RLS (theta(0) = 0, P(0) = 1000 I) on the supplied energy rows
+    """[DirectDrivePaper] Sect. 6.4: RLS, started as the study's RLS estimator, on the supplied energy rows
     y - W_c theta_c (W_c the Coulomb columns fc1, fc2, theta_c their true values); None where the
     study has no supplied energy regression or no truth."""
     reg = regressions.get("supplied_energy")
@@ -103,8 +103,10 @@ def known_coulomb_fit(cfg: StudyConfig, model: RobotModel, regressions: dict[str
         return None
     keep = [j for j in range(len(names)) if j not in coulomb]
     y = reg.y - reg.W[:, coulomb] @ model.theta_true[coulomb]
-    est = RLS(len(keep), center0=0.0, shape0=1000.0, names=[names[j] for j in keep],
-              record_every=max(1, reg.n_rows // 2000)).fit(reg.W[:, keep], y)
+    ec = next((ec for ec in cfg.estimators if ec.method == "rls"), None)  # started as the study's RLS
+    o = ec.options if ec is not None else RLSOptions()
+    est = RLS(len(keep), center0=o.center0, shape0=o.shape0, forgetting=o.forgetting,
+              names=[names[j] for j in keep], record_every=max(1, reg.n_rows // 2000)).fit(reg.W[:, keep], y)
     center = model.theta_true.astype(float).copy()
     center[keep] = est.center
     return KnownCoulomb(center, coulomb, est)

@@ -174,7 +174,7 @@ def h4_claims(r) -> list[Claim]:
     label, obe = _form(ests, "factori")
     if obe is None:  # the paper's method is not run: no register
         return []
-    method = f"{label} (the paper's factorized OBE)" if label else "the factorized OBE (not run)"
+    method = f"{label} (the paper's factorized OBE)"
     ctx = _H4(r, ests, label, obe, method)
     return _numbered("H", [ctx.stability(), ctx.equivalence(), ctx.bound_raised(), ctx.table_i(), ctx.centre(),
                            ctx.imot_larger(), ctx.coulomb(), ctx.volume(), ctx.outliers(), ctx.eq37_enclose(),
@@ -245,8 +245,6 @@ class _H4:
         lab_s, std = _form(self.ests, "standard")
         paper = "(30) and the factorized (35) are \"completely equivalent\" (Lesecq and Barraud)"
         name = "Standard and factorized forms give the same ellipsoid"
-        if self.obe is None:
-            return None
         method = f"{lab_s or 'the standard OBE'} against {self.label}, same rows, bound and prior"
         if std is None:
             why = _failed(self.r, "standard")
@@ -433,7 +431,7 @@ class _H4:
 
     def outliers(self) -> Claim | None:
         paper = self.r.config.paper
-        if self.obe is None or "outlier_rate_percent_below" not in paper:
+        if "outlier_rate_percent_below" not in paper:
             return None
         lim = float(paper["outlier_rate_percent_below"])
         rate = 100.0 * self.obe.n_outliers / max(self.obe.n_samples, 1)
@@ -460,16 +458,16 @@ class _H4:
         bands, measured = self._bands()
         if self.label not in bands or measured is None:
             return None
-        inside = 1.0 - bands[self.label].outside_fraction(measured)
+        inside = bands[self.label].coverage(measured)
         ok = inside >= ENCLOSE_SHARE
         n = int(np.sum(~np.isnan(measured)))
-        others = "; ".join(f"{lab} {100 * (1.0 - b.outside_fraction(measured)):.4g} %" for lab, b in bands.items()
+        others = "; ".join(f"{lab} {100 * b.coverage(measured):.4g} %" for lab, b in bands.items()
                            if lab != self.label)
         reason = ("eq. (37) band c^T w +- sqrt(w^T M^-1 w) of the factorized OBE on a second trajectory; "
                   f"criterion: >= {100 * ENCLOSE_SHARE:g} % inside (the band carries no error bound, so this can fail)")
         exact = bands.get("LP exact")
         if exact is not None:
-            share = 1.0 - exact.outside_fraction(measured)
+            share = exact.coverage(measured)
             reason += (f"; the exact feasible set's own band (no error term either) holds {100 * share:.4g} %"
                        + (": the OBE passes through its extra width" if share < ENCLOSE_SHARE <= inside else ""))
         return Claim("H8", "§IV.C, Fig. 4", "The eq. (37) bounds enclose the cross-validation torques",
@@ -515,7 +513,8 @@ class _H4:
         if not fc:
             return None
         return Claim("H13", "§IV.B", "The Coulomb friction is around 1 N m (why the bound had to grow)",
-                     "\"around 1 Nm\" (Table I: 0.54-0.99)", self.method,
+                     f"\"around 1 Nm\" (Table I: {_g(m.theta_true[fc].min(), 2)}-{_g(m.theta_true[fc].max(), 2)})",
+                     self.method,
                      "centre " + ", ".join(f"{self.names[j]} {_g(self.obe.center[j])}" for j in fc),
                      "holds by construction",
                      "the simulator's Coulomb coefficients are Table I's ("
@@ -528,9 +527,7 @@ class _H4:
                      "cannot be tested", "no model-based controller is run with the estimates; the paper gives no "
                      "result to compare with (its details are in another paper)")
 
-    def correlations(self) -> Claim | None:
-        if self.obe is None:
-            return None
+    def correlations(self) -> Claim:
         rho = _correlation(self.obe.set.shape)
         i, j = np.unravel_index(np.argmax(np.abs(np.triu(rho, 1))), rho.shape)
         big = int(np.sum(np.abs(np.triu(rho, 1)) >= SIGNIFICANT_CORRELATION))
@@ -635,7 +632,15 @@ class _DirectDrive:
         self.span = np.ptp(r.data.recording.q, axis=0)
 
     def _method(self, rn: str) -> str:
-        return f"RLS on {MODEL_WORDS[rn]} (theta(0) = 0, P(0) = 1000 I)"
+        start = self._rls_start()
+        return f"RLS on {MODEL_WORDS[rn]}" + (f" ({start})" if start else "")
+
+    def _rls_start(self) -> str:
+        """The study's RLS start, from its [[estimators]] table ("theta(0) = 0, P(0) = 1000 I")."""
+        ec = next((ec for ec in self.r.config.estimators if ec.method == "rls"), None)
+        if ec is None:
+            return ""
+        return f"theta(0) = {ec.options.center0:g}, P(0) = {ec.options.shape0:g} I"
 
     def _dev(self, center, idx=None) -> np.ndarray:
         idx = slice(None) if idx is None else idx
@@ -723,7 +728,8 @@ class _DirectDrive:
                      ", ".join(f"{n} {d:.2g} %" for n, d in zip(names, dc, strict=True))
                      + f" vs non-friction <= {dn.max():.2g} %", "cannot be tested",
                      "on the real arm a larger Coulomb deviation comes from friction that the Coulomb model does not "
-                     "describe; here the simulated friction is the model's (smoothed by tanh at 0.01 rad/s), so "
+                     "describe; here the simulated friction is the model's (smoothed by tanh at "
+                     f"{self.r.config.experiment.coulomb_width_rad_s:g} rad/s), so "
                      f"what is left is the estimator's error: {_share(larger)} Coulomb deviations above the largest "
                      "non-friction one; what is missing: the real arm's recording")
 
