@@ -194,14 +194,13 @@ def test_bad_inputs_raise():
             f(bad)
 
 
-@pytest.mark.parametrize("p,N,seed,drops", [(2, 40, 0, False), (3, 60, 1, False), (3, 150, 5, False),
-                                             (5, 400, 7, True)])
-def test_outer_column_generation_equals_full_s_procedure(p, N, seed, drops):
+@pytest.mark.parametrize("p,N,seed", [(2, 40, 0), (3, 60, 1), (3, 150, 5), (5, 400, 7)])
+def test_outer_column_generation_equals_full_s_procedure(p, N, seed):
     """The column-generation outer ellipsoid equals the S-procedure solved in one piece on EVERY
     strip, each tightened to P's extent taken from the Qhull vertices (independent of the LPs),
     plus the LP box; it is never larger than the old reference (every non-redundant strip,
-    tightened) and uses far fewer strips in its SDP. ``drops``: a case whose column generation
-    drops strips with zero multipliers from its working set on the way."""
+    tightened) and uses far fewer strips in its SDP. The reference is solved by Clarabel, ours in
+    the multipliers (boundid.sets._s_lagrangian): two algorithms."""
     P = random_polytope(seed, p, N)
     out = sdp.outer_ellipsoid(P)
     origin, scale = P.box_frame()
@@ -220,7 +219,7 @@ def test_outer_column_generation_equals_full_s_procedure(p, N, seed, drops):
     old = sdp.outer_ellipsoid(P, strips=P.nonredundant())
     assert out.ellipsoid.log_volume() <= old.ellipsoid.log_volume() + 1e-6
     assert len(out.strips) < N
-    assert (out.info["strips_dropped"] > 0) == drops
+    assert out.info["max_reduced_cost"] <= out.info["price_tol"]
 
 
 def _textbook_s_procedure(Gs, mid, half, extra):

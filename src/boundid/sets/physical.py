@@ -47,7 +47,9 @@ projection of a closed set need not be closed): the solver then returns a point 
 
 from __future__ import annotations
 
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import clarabel
@@ -232,6 +234,8 @@ def _margin_rows(vars_: _Vars, rho_scale: float):
 #: objectives after them see those strips); an objective whose optimum violates a strip is solved
 #: again, after the others
 _QUEUE_BATCH = 8
+#: threads that solve a batch's objectives at once (the machines have 2 cores)
+_THREADS = min(2, os.cpu_count() or 1)
 #: at most this many of the strips one optimum violates join the working set (the most violated)
 _ADD_STRIPS = 32
 #: an objective solved this many times without its optimum satisfying every strip: SolverError
@@ -397,6 +401,18 @@ class _StripProgram:
         return const + float(terms.sum()) - 1e-12 * (abs(const) + float(np.abs(terms).sum()))
 
     # ------------------------------------------------------------------ all objectives
+    def _solve_into(self, part, costs: np.ndarray, model, ws: np.ndarray, out) -> None:
+        """Solve the objectives ``part`` (indices into ``costs``) in turn on ``model``, writing each
+        argmin, value, dual bound and status into ``out`` = (X, values, dual, status)."""
+        A, b = model[0], model[1]
+        X, values, dual, status = out
+        for i in part:
+            q = np.concatenate([costs[i], np.zeros(len(ws))])
+            status[i], u, z = self._solve(model, q)
+            X[i] = u[:self.n]
+            values[i] = float(costs[i] @ X[i])
+            dual[i] = self._dual_bound(q, A, b, z, ws)
+
     def minimize_many(self, costs: np.ndarray, seed=()) -> ConicResult:
         """argmin of each row of ``costs`` (k, n) over the fixed parts and every strip."""
         costs = np.atleast_2d(np.asarray(costs, float))
@@ -409,20 +425,20 @@ class _StripProgram:
         in_ws &= self.fin
         queue, solved = list(range(k)), np.zeros(k, dtype=int)
         rounds = solves = 0
+        out = (X, values, dual, status)
         while queue:
             batch, queue = queue[:_QUEUE_BATCH], queue[_QUEUE_BATCH:]
             ws = np.flatnonzero(in_ws)
             A, b, cones = self._model(ws)
-            model = (A, b, cones, [])
             rounds += 1
-            for i in batch:
-                q = np.concatenate([costs[i], np.zeros(len(ws))])
-                status[i], u, z = self._solve(model, q)
-                solves += 1
-                solved[i] += 1
-                X[i] = u[:n]
-                values[i] = float(costs[i] @ X[i])
-                dual[i] = self._dual_bound(q, A, b, z, ws)
+            # the batch's solves are independent: one solver per thread (Clarabel releases the GIL), each
+            # answer the same as in turn (a solver given a new cost iterates as a new one, bit for bit)
+            parts = [batch[j::_THREADS] for j in range(min(_THREADS, len(batch)))]
+            with ThreadPoolExecutor(len(parts)) as pool:
+                list(pool.map(self._solve_into, parts, [costs] * len(parts),
+                              [(A, b, cones, []) for _ in parts], [ws] * len(parts), [out] * len(parts)))
+            solves += len(batch)
+            solved[batch] += 1
             viol = np.abs(self.G @ X[batch].T - self.c[:, None]) - self.h[:, None]   # (m, len(batch))
             viol[~self.fin] = -np.inf
             solved_on = in_ws.copy()                   # the working set these optima saw
