@@ -19,7 +19,13 @@ import pytest
 from boundid.estimators.estimate import History
 from boundid.report import html as report_html
 from boundid.report.figure_check import figure_problems
-from boundid.report.study_page import clipped_intervals, numbers_stored, set_comparison, write_study_report
+from boundid.report.study_page import (
+    STAGE_NAMES,
+    clipped_intervals,
+    numbers_stored,
+    set_comparison,
+    write_study_report,
+)
 from boundid.sets import Box, Ellipsoid
 from boundid.studies.reproduction import VERDICTS, claims, drift, prior_bounds, shrank
 from boundid.studies.runner import run_study
@@ -166,3 +172,24 @@ def test_measured_data_show_no_truth(small, tmp_path):
     html = write_study_report(r2, tmp_path / "measured").read_text()
     assert "Table II" not in html and "Deviation from truth" not in html and "truth in set" not in html
     assert "Does it reproduce?" not in html and "measured data have no truth" in html
+
+
+def test_page_shows_where_the_time_went(small, drawn):
+    """The time table lists every stage the run timed, the exact optima's parts under their total, and
+    the page itself; its shares are of the whole, and the slowest stage is named."""
+    cfg, r = small
+    page, _ = drawn
+    html = unescape(page.read_text())
+    assert "Where the time went" in html
+    times = pd.read_csv(page.parent / "tables" / "times.csv", index_col=0)
+    names = [n.strip() for n in times.index]
+    for key in r.timings:
+        assert STAGE_NAMES[key] in names
+    for key in r.exact.time_s:
+        assert STAGE_NAMES[key] in names
+    assert any(n.startswith("this page") for n in names)
+    top = [n for n in times.index if not n.startswith("  ")]
+    shares = times.loc[top, "share of the run"].str.rstrip(" %").astype(float)
+    assert shares.sum() == pytest.approx(100, abs=len(top))        # rounded to whole per cent
+    slowest = max(r.timings, key=r.timings.get)
+    assert f"the slowest stage: {STAGE_NAMES[slowest]}" in html

@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 import platform
 import shutil
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -911,6 +912,7 @@ def _citations(r: StudyResult) -> list[tuple[str, str]]:
 
 
 def _page(r: StudyResult) -> Page:
+    started = time.perf_counter()
     cfg = r.config
     failures = list(r.failures)
     guard = _Guard(failures)
@@ -961,6 +963,7 @@ def _page(r: StudyResult) -> Page:
         _published_section(page, r)
     with guard("section", "OBE breakdown rate"):
         _sweep_section(page, r)
+    _time_section(page, r, time.perf_counter() - started)
     box["failures"] = "none" if not failures else f"{len(failures)}, listed in the last section"
     if failures:
         standard_obe = any(f.stage == "estimator" and "OBE" in f.subject and "definite" in f.reason
@@ -974,6 +977,44 @@ def _page(r: StudyResult) -> Page:
                    "Failures of the run and of the page.", name="failures")
     page.setup.update({"failures": box["failures"]})
     return page
+
+
+#: what each stage of :func:`boundid.studies.runner.run_study` and of the exact optima does, for the time table
+STAGE_NAMES = {
+    "data": "simulate and measure, or read the recording", "regressions": "regressions (filter, differentiate, rows)",
+    "gamma_star": "gamma*, the smallest bound the data allow (LPs)", "estimators": "every estimator",
+    "exact": "exact optima, in all", "consistency": "consistency LP (gamma* at the bound)",
+    "lp_bounds": "LP bounds (2p LPs)", "relaxed_bounds": "relaxed bounds", "sdp_outer": "SDP outer ellipsoid",
+    "sdp_inner": "SDP inscribed ellipsoid", "sdp_john": "John's ellipsoid (from the inscribed one)",
+    "volume_bracket": "bracket of the minimum-volume ellipsoid", "physical": "physically consistent bounds",
+    "published": "published values", "validation": "validation (bands, re-simulation)",
+    "paper": "the paper's own experiments"}
+
+
+def _time_section(page: Page, r: StudyResult, page_s: float) -> None:
+    """Where the run's time went: each stage's wall time [s] and share, the exact optima's parts
+    indented under their total (the outer and the inscribed ellipsoid run at once, in two threads,
+    so their sum can exceed it), and the page up to this table."""
+    total = sum(r.timings.values()) + page_s
+    rows = []
+    for key, seconds in r.timings.items():
+        rows.append((STAGE_NAMES.get(key, key), seconds))
+        if key == "exact" and r.exact is not None:
+            rows += [("  " + STAGE_NAMES.get(k, k.replace("_", " ")), t) for k, t in r.exact.time_s.items()]
+    rows.append(("this page (figures, tables, projections) up to this table", page_s))
+    df = pd.DataFrame(rows, columns=["stage", "seconds"]).set_index("stage")
+    df["share of the run"] = [f"{100 * t / total:.0f} %" if not name.startswith("  ") else ""
+                              for name, t in rows]
+    reg = r.regressions.get(r.config.exact.regression) if r.config.exact.regression else None
+    size = f" The exact stage's polytope has p = {reg.W.shape[1]} parameters and N = {reg.n_rows} rows." \
+        if reg is not None else ""
+    slowest = max(r.timings, key=r.timings.get) if r.timings else None
+    page.section("Where the time went",
+                 f"{total:.1f} s in all on {platform_line()}; the slowest stage: "
+                 f"{STAGE_NAMES.get(slowest, slowest)} ({r.timings.get(slowest, 0.0):.1f} s).{size}")
+    page.table(df, "Wall time of each stage of this run [s]. Indented: the parts of the exact optima (the outer "
+               "and inscribed ellipsoids are solved at once, in two threads). The machine's load varies; "
+               "reports/benchmarks/ compares costs side by side.", float_format="{:.2f}", name="times")
 
 
 def in_bound_units(ex, s: float) -> str:
