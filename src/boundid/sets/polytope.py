@@ -761,10 +761,11 @@ class Polytope:
         b = self.bounds()
         return b.lo.copy(), b.hi.copy()
 
-    def project(self, i: int, j: int) -> VertexPolytope:
+    def project(self, i: int, j: int, rtol: float = 1e-9) -> VertexPolytope:
         """The exact shadow of P on the plane (i, j), a polygon (support-point LPs,
-        :func:`boundid.sets.vertex_polytope.shadow`)."""
-        return shadow(self, i, j)
+        :func:`boundid.sets.vertex_polytope.shadow`): its vertices are vertices of the shadow, and the
+        shadow reaches at most ``rtol`` times its size beyond any of its edges."""
+        return shadow(self, i, j, rtol=rtol)
 
     def boundary(self, n_points: int = 200) -> np.ndarray:
         """For p = 2: P's vertices, counter-clockwise, closed."""
