@@ -49,7 +49,7 @@ from boundid.experiments.limited_trajectories import fourier_within_limits
 from boundid.experiments.recording import Recording
 from boundid.models.urdf import UrdfRobot, resolve_urdf
 
-#: The UR5's positioning joints (the wrist fixed at 0, as in studies/ur5_urdf.toml).
+#: The UR5's positioning joints (the wrist fixed at 0).
 UR5_JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint")
 
 #: All six joints of the UR5 (52 base parameters with armature, against 22 for :data:`UR5_JOINTS`). The

@@ -20,6 +20,7 @@ from boundid.estimators.estimate import History
 from boundid.report import html as report_html
 from boundid.report.figure_check import figure_problems
 from boundid.report.study_page import (
+    PART_MARK,
     STAGE_NAMES,
     clipped_intervals,
     numbers_stored,
@@ -182,13 +183,13 @@ def test_page_shows_where_the_time_went(small, drawn):
     html = unescape(page.read_text())
     assert "Where the time went" in html
     times = pd.read_csv(page.parent / "tables" / "times.csv", index_col=0)
-    names = [n.strip() for n in times.index]
+    names = [n.removeprefix(PART_MARK) for n in times.index]
     for key in r.timings:
         assert STAGE_NAMES[key] in names
     for key in r.exact.time_s:
         assert STAGE_NAMES[key] in names
     assert any(n.startswith("this page") for n in names)
-    top = [n for n in times.index if not n.startswith("  ")]
+    top = [n for n in times.index if not n.startswith(PART_MARK)]
     shares = times.loc[top, "share of the run"].str.rstrip(" %").astype(float)
     assert shares.sum() == pytest.approx(100, abs=len(top))        # rounded to whole per cent
     slowest = max(r.timings, key=r.timings.get)

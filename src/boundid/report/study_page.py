@@ -997,19 +997,23 @@ STAGE_NAMES = {
     "paper": "the paper's own experiments"}
 
 
+#: the exact optima's parts in the time table, under their total
+PART_MARK = "↳ "
+
+
 def _time_section(page: Page, r: StudyResult, page_s: float) -> None:
     """Where the run's time went: each stage's wall time [s] and share, the exact optima's parts
-    indented under their total (the outer and the inscribed ellipsoid run at once, in two threads,
+    (marked PART_MARK) under their total (the outer and the inscribed ellipsoid run at once, in two threads,
     so their sum can exceed it), and the page up to this table."""
     total = sum(r.timings.values()) + page_s
     rows = []
     for key, seconds in r.timings.items():
         rows.append((STAGE_NAMES.get(key, key), seconds))
         if key == "exact" and r.exact is not None:
-            rows += [("  " + STAGE_NAMES.get(k, k.replace("_", " ")), t) for k, t in r.exact.time_s.items()]
+            rows += [(PART_MARK + STAGE_NAMES.get(k, k.replace("_", " ")), t) for k, t in r.exact.time_s.items()]
     rows.append(("this page (figures, tables, projections) up to this table", page_s))
     df = pd.DataFrame(rows, columns=["stage", "seconds"]).set_index("stage")
-    df["share of the run"] = [f"{100 * t / total:.0f} %" if not name.startswith("  ") else ""
+    df["share of the run"] = [f"{100 * t / total:.0f} %" if not name.startswith(PART_MARK) else ""
                               for name, t in rows]
     reg = r.regressions.get(r.config.exact.regression) if r.config.exact.regression else None
     size = f" The exact stage's polytope has p = {reg.W.shape[1]} parameters and N = {reg.n_rows} rows." \
@@ -1018,8 +1022,8 @@ def _time_section(page: Page, r: StudyResult, page_s: float) -> None:
     page.section("Where the time went",
                  f"{total:.1f} s in all on {platform_line()}; the slowest stage: "
                  f"{STAGE_NAMES.get(slowest, slowest)} ({r.timings.get(slowest, 0.0):.1f} s).{size}")
-    page.table(df, "Wall time of each stage of this run [s]. Indented: the parts of the exact optima (the outer "
-               "and inscribed ellipsoids are solved at once, in two threads). The machine's load varies; "
+    page.table(df, f"Wall time of each stage of this run [s]. {PART_MARK.strip()}: the parts of the exact optima "
+               "(the outer and inscribed ellipsoids are solved at once, in two threads). The machine's load varies; "
                "reports/benchmarks/ compares costs side by side.", float_format="{:.2f}", name="times")
 
 
