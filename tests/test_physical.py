@@ -237,6 +237,10 @@ def test_lp_case_matches_cvxpy():
     assert_bounds_match(b, *cvxpy_bounds(W, y, 6.0, cons, box))
     assert S.consistency().gamma == pytest.approx(cvxpy_gamma(W, y, 6.0, cons, box), rel=1e-6)
     assert np.any(S.plain.bounds().lo < 0) and np.all(b.lo >= 0)
+    # membership: the attained minimisers are in P_phys; a point of P with a negative parameter is not
+    assert all(S.contains(x) for x in b.argmin)
+    below = S.plain.bounds().argmin[int(np.argmin(S.plain.bounds().lo))]
+    assert S.plain.contains(below) and not S.contains(below)
 
 
 def test_soc_case_matches_cvxpy():

@@ -69,15 +69,17 @@ random states within the joint limits (no simulation: y = Y(q, qd, qdd) beta + e
 benchmark builds them), e uniform in +-{NOISE} N m, e_max = {E_MAX} N m, prior box +-{PRIOR:g} about 0
 for every parameter; every draw is seeded by the case. `N` counts rows (one per joint and state).
 
-**Parts**, in this order on one polytope P = `Polytope.from_strips(W, y, e_max, box)`, as a study
-runs them (each later part reuses what P caches: the LP bounds and frame, John's the inscribed
-ellipsoid): `LP bounds` (`P.bounds()`), `outer ellipsoid` (`sdp.outer_ellipsoid`), `inner
-ellipsoid` (`sdp.inner_ellipsoid`), `John ellipsoid` (`sdp.john_outer`: the inscribed one scaled,
-checked on the known vertices), `physical bounds` (`model.physical_constraints()` and
-`PhysicalSet(..., plain=P).bounds()`: one pseudo-inertia LMI per link, Clarabel). The row `exact
-stage` is the sum of the first four. A study solves the outer and the inscribed ellipsoid at once
-in two threads (`sdp.polytope_ellipsoids`), so its wall time can be below this sum. A part that
-raises has no time and says why in `detail`.
+**Parts**, on one polytope P = `Polytope.from_strips(W, y, e_max, box)`, as a study solves them
+(each later part reuses what P caches: the LP bounds and frame, John's the inscribed ellipsoid):
+`LP bounds` (`P.bounds()`); then the three ellipsoids by `sdp.polytope_ellipsoids`, which solves
+the `outer ellipsoid` (`sdp.outer_ellipsoid`) and the `inner ellipsoid` (`sdp.inner_ellipsoid`) at
+once in two threads, then the `John ellipsoid` (`sdp.john_outer`: the inscribed one scaled, checked
+on the known vertices); each one's `time_s` is its own wall time there (they overlap; their CPU time
+is counted once, on the exact stage's row); `exact stage` is the wall time of the LP bounds plus that
+of the three ellipsoids, as in a study's "exact optima" (the goal's measure); then `physical bounds`
+(`model.physical_constraints()` and `PhysicalSet(..., plain=P).bounds()`: one pseudo-inertia LMI
+per link, Clarabel, the 2p objectives' solves in two threads). A part that raises has no time and
+says why in `detail`.
 
 **Memory.** Each case runs in a fresh process (multiprocessing, "spawn"); `peak_rss_gb` is that
 process's peak resident memory at the end of the case (`ru_maxrss`, 10^9 bytes), the same on all
@@ -119,14 +121,14 @@ def grid_case(key: str, N: int) -> str:
 
 _SIZE = "{robot}, p = {p:.0f}, N = {N:,.0f}"
 GOAL_CHECKS = (
-    Goal("six-joint UR5: exact stage (LP bounds + outer + inner + John), time",
+    Goal("six-joint UR5: exact stage (LP bounds, outer, inner and John ellipsoids), time",
          _where(headline_case("ur5"), "exact stage"), "time_s", "<=", 15.0, "s", size=_SIZE, cpu_column="cpu_s"),
     Goal("six-joint UR5: physically consistent bounds, time", _where(headline_case("ur5"), "physical bounds"),
          "time_s", "<=", 10.0, "s", size=_SIZE, cpu_column="cpu_s"),
     Goal("six-joint UR5: peak memory of the case", _where(headline_case("ur5"), "exact stage"), "peak_rss_gb", "<=",
          2.0, "GB", size=_SIZE),
-    Goal("Panda: exact stage (LP bounds + outer + inner + John), time", _where(headline_case("panda"), "exact stage"),
-         "time_s", "<=", 30.0, "s", size=_SIZE, cpu_column="cpu_s"),
+    Goal("Panda: exact stage (LP bounds, outer, inner and John ellipsoids), time",
+         _where(headline_case("panda"), "exact stage"), "time_s", "<=", 30.0, "s", size=_SIZE, cpu_column="cpu_s"),
     Goal("Panda: physically consistent bounds, time", _where(headline_case("panda"), "physical bounds"),
          "time_s", "<=", 20.0, "s", size=_SIZE, cpu_column="cpu_s"),
 )
@@ -151,31 +153,49 @@ def _info(res, keys) -> str:
     return ", ".join(f"{k.replace('_', ' ')} {res.info[k]}" for k in keys if k in res.info)
 
 
+def _timed(solve):
+    """(result or the exception it raised, wall s, CPU s) of solve()."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    try:
+        res = solve()
+    except Exception as exc:  # noqa: BLE001 - recorded in the row; the other parts still run
+        res = exc
+    return res, time.perf_counter() - t0, time.process_time() - c0
+
+
+def _described(part: str, res, seconds: float, cpu: float, describe) -> tuple[str, float, float, str]:
+    if isinstance(res, Exception):
+        return part, np.nan, np.nan, f"failed after {seconds:.1f} s: {type(res).__name__}: {res}"
+    return part, seconds, cpu, describe(res)
+
+
 def _parts(model: BaseParameterModel, W: np.ndarray, y: np.ndarray) -> list[tuple[str, float, float, str]]:
-    """[(part, wall s, CPU s, detail)] of :data:`PARTS`, in that order on one polytope; a part
-    that raises gets NaN times and the error in its detail (the later parts still run)."""
+    """[(part, wall s, CPU s, detail)] of :data:`PARTS` and the exact stage, on one polytope as a study
+    solves it: the LP bounds, then the three ellipsoids by ``sdp.polytope_ellipsoids`` (the outer and
+    the inscribed at once, in two threads, so each one's wall time is its own and their CPU time is
+    counted once, on the exact stage's row), then the physically consistent bounds. A part that
+    raises gets NaN times and the error in its detail (the later parts still run)."""
     box = (np.full(model.p, -PRIOR), np.full(model.p, PRIOR))
     P = Polytope.from_strips(W, y, E_MAX, box=box)
-    steps = (
-        (P.bounds, lambda b: _info(b, ("lp_solves", "working_rows", "strips_reaching_box"))),
-        (lambda: sdp.outer_ellipsoid(P),
-         lambda r: _info(r, ("rounds", "strips_tightened", "support_lps")) + f", {len(r.strips)} strips in the SDP"),
-        (lambda: sdp.inner_ellipsoid(P), lambda r: _info(r, ("rounds", "working_sides"))),
-        (lambda: sdp.john_outer(P), lambda r: f"reuses the inner ellipsoid; {_info(r, ('vertex_repair',))} on "
-                                               f"{r.info['vertices_checked']} known vertices"),
-        (lambda: PhysicalSet(W, y, E_MAX, model.physical_constraints(), box=box, plain=P).bounds(),
-         lambda b: f"{b.method}, certificate {b.certificate}; {_info(b, ('rounds', 'solves', 'working_rows'))}"),
-    )
-    out = []
-    for part, (solve, describe) in zip(PARTS, steps, strict=True):
-        t0, c0 = time.perf_counter(), time.process_time()
-        try:
-            res = solve()
-        except Exception as exc:  # noqa: BLE001 - recorded in the row; the other parts still run
-            out.append((part, np.nan, np.nan, f"failed after {time.perf_counter() - t0:.1f} s: "
-                                              f"{type(exc).__name__}: {exc}"))
-            continue
-        out.append((part, time.perf_counter() - t0, time.process_time() - c0, describe(res)))
+    bounds, t_lp, c_lp = _timed(P.bounds)
+    out = [_described("LP bounds", bounds, t_lp, c_lp,
+                      lambda b: _info(b, ("lp_solves", "working_rows", "strips_reaching_box")))]
+    ells, t_sdp, c_sdp = _timed(lambda: sdp.polytope_ellipsoids(P, ("outer", "inner", "john")))
+    describe = {
+        "outer": lambda r: _info(r, ("rounds", "strips_tightened", "support_lps")) + f", {len(r.strips)} strips in "
+                                                                                     "the SDP",
+        "inner": lambda r: _info(r, ("rounds", "working_sides")),
+        "john": lambda r: f"reuses the inner ellipsoid; {_info(r, ('vertex_repair',))} on "
+                          f"{r.info['vertices_checked']} known vertices"}
+    for part, name in zip(EXACT_PARTS[1:], ("outer", "inner", "john"), strict=True):
+        res, seconds = ells[name] if isinstance(ells, dict) else (ells, t_sdp)
+        out.append(_described(part, res, seconds, np.nan, describe[name]))
+    failed = isinstance(bounds, Exception) or isinstance(ells, Exception)
+    out.append(("exact stage", np.nan if failed else t_lp + t_sdp, np.nan if failed else c_lp + c_sdp,
+                "LP bounds, then the three ellipsoids as a study solves them (outer and inscribed in two threads)"))
+    phys, t, c = _timed(lambda: PhysicalSet(W, y, E_MAX, model.physical_constraints(), box=box, plain=P).bounds())
+    out.append(_described("physical bounds", phys, t, c, lambda b: f"{b.method}, certificate {b.certificate}; "
+                                                                  f"{_info(b, ('rounds', 'solves', 'working_rows'))}"))
     return out
 
 
@@ -187,8 +207,8 @@ def _row(what: str, case: str, robot: str, p, N, part: str, **kw) -> dict:
 
 
 def case(key: str, N: int, name: str) -> list[dict]:
-    """The rows of one case (``name`` in `case`), measured in this process: one per part, then
-    the exact stage (the sum of its four parts). ``peak_rss_gb`` is this process's peak resident
+    """The rows of one case (``name`` in `case`), measured in this process: one per part and the exact
+    stage (:func:`_parts`). ``peak_rss_gb`` is this process's peak resident
     memory when the case ends, GB (10^9 bytes): :func:`run` runs each case in a fresh process."""
     with tempfile.TemporaryDirectory() as folder:
         model = arm(key, folder)
@@ -196,12 +216,8 @@ def case(key: str, N: int, name: str) -> list[dict]:
         parts = _parts(model, W, y)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e9  # Linux: ru_maxrss in KiB
     common = {"case": name, "robot": ROBOTS[key][0], "p": model.p, "N": W.shape[0], "peak_rss_gb": peak}
-    rows = [_row("part", part=part, time_s=t, cpu_s=c, detail=d, **common) for part, t, c, d in parts]
-    exact = [r for r in rows if r["part"] in EXACT_PARTS]
-    rows.append(_row("sum", part="exact stage", time_s=sum(r["time_s"] for r in exact),
-                     cpu_s=sum(r["cpu_s"] for r in exact), detail=" + ".join(EXACT_PARTS) + ", one after the other",
-                     **common))
-    return rows
+    return [_row("stage" if part == "exact stage" else "part", part=part, time_s=t, cpu_s=c, detail=d, **common)
+            for part, t, c, d in parts]
 
 
 def _fresh_case(key: str, N: int, name: str) -> list[dict]:

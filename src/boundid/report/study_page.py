@@ -596,7 +596,8 @@ def _exact_section(page: Page, r: StudyResult, guard: _Guard) -> None:
             page.figure(F.projection_2d(shadow, shadows, truth[0][idx] if truth is not None else None, box, (a, b),
                                         centers=centers, units=[m.param_units[i] for i in idx]),
                         f"Projection on ({a}, {b}): exact polytope shadow (grey; its vertices are the shadow's, which "
-                        f"reaches at most {SHADOW_RTOL:.1%} of its size beyond an edge), LP box (dashed), the sets' "
+                        f"reaches at most {SHADOW_RTOL:.1%} of its width along each axis beyond an edge), LP box "
+                        "(dashed), the sets' "
                         "shadows" + (f", {truth[1]} (star)" if truth is not None else "") + "; John's ellipsoid "
                         "may run past the frame.",
                         name=f"projection_{a}_{b}")
@@ -965,7 +966,8 @@ def _page(r: StudyResult) -> Page:
         _published_section(page, r)
     with guard("section", "OBE breakdown rate"):
         _sweep_section(page, r)
-    _time_section(page, r, time.perf_counter() - started)
+    with guard("section", "where the time went"):
+        _time_section(page, r, time.perf_counter() - started)
     box["failures"] = "none" if not failures else f"{len(failures)}, listed in the last section"
     if failures:
         standard_obe = any(f.stage == "estimator" and "OBE" in f.subject and "definite" in f.reason
@@ -981,8 +983,9 @@ def _page(r: StudyResult) -> Page:
     return page
 
 
-#: the polytopes' shadows on the page are drawn to this fraction of their size (:meth:`Polytope.project`): 0.1 % is
-#: below a line's width, and at p = 52 the exact shadow needs 3,000 LPs where this needs a few hundred
+#: the polytopes' shadows on the page are drawn to this fraction of their width along each axis
+#: (:meth:`Polytope.project`): 0.1 % is below a line's width, and at p = 52 the exact shadow needs 3,000 LPs
+#: where this needs a few hundred
 SHADOW_RTOL = 1e-3
 
 #: what each stage of :func:`boundid.studies.runner.run_study` and of the exact optima does, for the time table

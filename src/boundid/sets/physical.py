@@ -830,7 +830,7 @@ class PhysicalSet:
         """Whether theta (p,) satisfies every strip and the box (relative ``tol``, as
         :meth:`Polytope.contains`) and is physically consistent (:func:`physical_margin` >= -tol)."""
         theta = as_vector(theta, "theta", self.dim)
-        return bool(self.plain.contains(theta, atol=tol)) and physical_margin(self.constraints, theta)[0] >= -tol
+        return bool(self.plain.contains(theta, rtol=tol)) and physical_margin(self.constraints, theta)[0] >= -tol
 
 
 def column_bounds(cons: PhysicalConstraints) -> tuple[np.ndarray, np.ndarray]:

@@ -763,8 +763,9 @@ class Polytope:
 
     def project(self, i: int, j: int, rtol: float = 1e-9) -> VertexPolytope:
         """The exact shadow of P on the plane (i, j), a polygon (support-point LPs,
-        :func:`boundid.sets.vertex_polytope.shadow`): its vertices are vertices of the shadow, and the
-        shadow reaches at most ``rtol`` times its size beyond any of its edges."""
+        :func:`boundid.sets.vertex_polytope.shadow`): its vertices are vertices of the shadow, and, in
+        axes scaled by the shadow's width along each, the shadow reaches at most ``rtol`` beyond any of
+        its edges."""
         return shadow(self, i, j, rtol=rtol)
 
     def boundary(self, n_points: int = 200) -> np.ndarray:

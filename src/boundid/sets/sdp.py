@@ -51,11 +51,14 @@ class SDPResult:
     """An SDP ellipsoid with how it was obtained.
 
     ellipsoid : the Ellipsoid (parameter units).
-    status : solver status ("optimal", or "no_cut" when step_ellipsoid had nothing to cut).
+    status : solver status ("optimal", or "no_cut" when step_ellipsoid had nothing to cut; the outer
+        ellipsoid says when it stopped at max_rounds).
     time_s : wall time of the whole call (LPs, SDP solves, verification), s; a result cached on
         the polytope (inner, outer ellipsoids) keeps the time of the call that solved it.
     strips : indices of the strips of P the answer used (empty when not applicable).
-    solver : "CLARABEL" or "SCS" (fallback), "" when no SDP was solved.
+    solver : "CLARABEL" or "SCS" (fallback); the outer ellipsoid's "interior point on the multipliers
+        (k steps)" (:mod:`boundid.sets._s_lagrangian`), or Clarabel's when that failed; "" when no SDP was
+        solved.
     info : extra facts (constraint-generation rounds, certificate residual, repair factor ...).
     """
 
@@ -501,8 +504,9 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
     # extent along it: a wider slab that still contains P. Only the strips that keep a multiplier
     # are then tightened (UR5, all six joints: 1,610 strips active at the LP-bound vertices, of
     # which about 200 keep one; tightening them all cost 3,300 LPs, 110 s)
-    loose_lo = np.maximum(c - h, np.minimum(G * zlo, G * zhi).sum(axis=1) - LP_TOL)
-    loose_hi = np.minimum(c + h, np.maximum(G * zlo, G * zhi).sum(axis=1) + LP_TOL)
+    slack = LP_TOL * np.abs(G).sum(axis=1)            # the LP box's own tolerance, along g
+    loose_lo = np.maximum(c - h, np.minimum(G * zlo, G * zhi).sum(axis=1) - slack)
+    loose_hi = np.minimum(c + h, np.maximum(G * zlo, G * zhi).sum(axis=1) + slack)
     ws = list(act)
     in_ws = np.zeros(P.n_strips, dtype=bool)
     in_ws[act] = True
@@ -516,6 +520,8 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
         hi = np.concatenate([fixed_hi, np.where(loose, loose_hi[k], exact_hi[k])])
         mid, half = 0.5 * (lo + hi), np.maximum(0.5 * (hi - lo), 0.0)
         A0, b0, tau, sig, solver, status, Zd = _outer_multipliers(Gs, mid, half, allow_fallback)
+        if rounds >= max_rounds:
+            status += f"; stopped after max_rounds = {max_rounds} (not the optimum over the pool)"
         if Zd is None or rounds >= max_rounds:
             break
         keep = tau[len(fixed_lo):] > _DROP_TOL * tau.max()

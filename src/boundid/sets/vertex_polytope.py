@@ -134,8 +134,9 @@ def shadow(polytope, i: int, j: int, rtol: float = 1e-9, max_lps: int = 10_000) 
     ``polytope`` needs ``dim`` and ``support_point(d) -> (max d^T x, a maximiser x)`` (one LP for
     :class:`boundid.sets.Polytope`). Edge refinement: start from the support points along +-e_i,
     +-e_j (in counter-clockwise order); for every edge (a, b) of the current polygon ask for the
-    support point q along its outward normal n; if n^T q exceeds n^T a (by more than rtol times
-    the shadow's size) q is a new vertex between a and b, else (a, b) is an edge of the shadow.
+    support point q along its outward normal n; if n^T q exceeds n^T a by more than rtol (in
+    coordinates scaled by the shadow's width along each axis, where it spans 1 x 1) q is a new vertex
+    between a and b, else (a, b) is an edge of the shadow.
     Every edge of the result is certified by one LP, so the polygon is exact (to LP accuracy);
     the cost is about two LPs per edge. With ``support_cone(d) -> (value, x, N)`` (the outward
     normals N of the optimal basis at x, :meth:`boundid.sets.Polytope.support_cone`), a direction
@@ -165,28 +166,30 @@ def shadow(polytope, i: int, j: int, rtol: float = 1e-9, max_lps: int = 10_000) 
         return x[idx]
 
     ring = [point(np.array(d, float)) for d in ((1, 0), (0, 1), (-1, 0), (0, -1))]
-    scale = max(np.ptp(np.array(ring), axis=0).max(), np.finfo(float).tiny)
-    tol = rtol * scale
+    # the refinement runs in coordinates scaled by the shadow's width along each axis (parameters of
+    # different units: a tolerance on the wider axis alone would leave the narrow one coarse)
+    width = np.maximum(np.ptp(np.array(ring), axis=0), np.finfo(float).tiny)
+    tol = rtol
 
     def distinct(a, b):
         return np.max(np.abs(a - b)) > tol
 
-    V = [ring[0]]
+    V = [ring[0] / width]
     for q in ring[1:]:
-        if distinct(q, V[-1]) and distinct(q, V[0]):
-            V.append(q)
+        if distinct(q / width, V[-1]) and distinct(q / width, V[0]):
+            V.append(q / width)
     k = 0
     while k < len(V):
         a, b = V[k], V[(k + 1) % len(V)]
         n = np.array([b[1] - a[1], a[0] - b[0]])  # outward normal of the counter-clockwise edge a -> b
         nn = np.linalg.norm(n)
         if nn > 0:
-            q = point(n / nn)
+            q = point(n / nn / width) / width      # n^T (x / width) = (n / width)^T x
             if (n / nn) @ (q - a) > tol and distinct(q, a) and distinct(q, b):
                 V.insert(k + 1, q)
                 continue
         k += 1
-    V = np.array(V)
+    V = np.array(V) * width
     if len(V) < 3:
         raise InputError(f"the shadow on ({i}, {j}) is flat (a segment or a point): the polytope has no "
                          "interior in that plane.")
