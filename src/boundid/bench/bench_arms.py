@@ -91,8 +91,9 @@ from their cache, solver set-up: about 2 s) are not charged to the first part.
 recording at 1 kHz after filtering, decimation by 10 and the low-speed mask): exact stage <= 15 s,
 physical bounds <= 10 s, peak memory <= 2 GB; the Panda at as many rows per joint (N =
 {HEADLINE['panda']:,}): exact stage <= 30 s, physical bounds <= 20 s. When the goal was set, the
-six-joint UR5's exact stage took 92 s and its physical bounds 47 s on an idle 2-core machine;
-`ratio_to_baseline` on those two rows is this run's time over that one. These cases take minutes
+six-joint UR5's exact stage took 92 s and its physical bounds 47 s on an idle 2-core machine, on
+the study's own recording (these rows are random states of the same p and N); `ratio_to_baseline`
+on those two rows is this run's time over that one. These cases take minutes
 each and do not run with --quick.
 
 **Growth.** The five arms (p = 10, 12, 22, 52, 62) x N = 2,000, 10,000, 50,000, except N = 50,000
