@@ -18,7 +18,8 @@ ROOT = Path(__file__).resolve().parents[3]
 
 GOALS = """
 `boundid report` -- what `make report` runs once the environment is installed -- on the repository's
-studies (studies/*.toml: the H4, direct-drive and UR5 studies), into a temporary folder, in a fresh
+studies (every studies/*.toml: the two papers' H4 and direct-drive studies, the TX40 on its real
+recording, and the full arms: the six-joint UR5 and the Panda), into a temporary folder, in a fresh
 Python process, as a user would start it: imports, simulation, every estimator, the exact optima (LP
 bounds, SDP ellipsoids), the validation experiments and the pages with their figures. The studies
 run at once, one per core (`--jobs`' default: each in a process of its own, the longest experiments
