@@ -36,11 +36,6 @@ W, y = W_all[:N], y_all[:N]
 LABELS = ("J [kg m²]", "mgl [N m]")
 
 
-def ordered(vertices):
-    """Vertices of a convex polygon in counter-clockwise order (for drawing)."""
-    c = vertices.mean(axis=0)
-    return vertices[np.argsort(np.arctan2(vertices[:, 1] - c[1], vertices[:, 0] - c[0]))]
-
 
 def square_window(center, half):
     """Equal ranges on both axes about ``center`` (with equal aspect, a disc looks like one)."""
@@ -55,7 +50,7 @@ def square_window(center, half):
 # %%
 P = Polytope(W, y, E_MAX)
 box = P.bounds()
-vertices = ordered(P.vertices())
+vertices = P.boundary()[:-1]   # counter-clockwise
 cheb_x, cheb_r = P.chebyshev_center()
 active = P.nonredundant()
 view = square_window(box.center, 6.0 * box.half_width.max())   # the window of the strip pictures
@@ -72,10 +67,10 @@ for ax, k in zip(axes, steps, strict=False):
     for j in range(k):
         band = Polytope(W[j:j + 1], y[j:j + 1], E_MAX, box=view)
         newest = j == k - 1
-        ax.add_patch(PolygonPatch(ordered(band.vertices()), closed=True, fc="#E69F00" if newest else "#56B4E9",
+        ax.add_patch(PolygonPatch(band.boundary(), closed=True, fc="#E69F00" if newest else "#56B4E9",
                                   alpha=0.35 if newest else 0.08, ec="none"))
     Pk = Polytope(W[:k], y[:k], E_MAX, box=view)
-    ax.add_patch(PolygonPatch(ordered(Pk.vertices()), closed=True, fc="none", ec="k", lw=1.8))
+    ax.add_patch(PolygonPatch(Pk.boundary(), closed=True, fc="none", ec="k", lw=1.8))
     ax.plot(*theta_true, "k*", ms=10)
     ax.set(xlim=(view[0][0], view[1][0]), ylim=(view[0][1], view[1][1]), aspect="equal")
     ax.set_title(f"{k} strip{'s' * (k > 1)}", fontsize=13)

@@ -50,10 +50,6 @@ def frozen(E):
     return Ellipsoid(E.center.copy(), E.shape.copy())
 
 
-def ordered(v):
-    c = v.mean(axis=0)
-    return v[np.argsort(np.arctan2(v[:, 1] - c[1], v[:, 0] - c[0]))]
-
 
 def polygon_area(rows):
     """Area of the exact polygon of the strips ``rows`` inside the prior box."""
@@ -131,13 +127,13 @@ for k, s in enumerate(steps):
     rows = [j for j in range(k + 1) if j != OUTLIER]
     poly = Polytope(W[rows], y[rows], E_MAX, box=prior_box)
     for ax, (lo, hi), title in ((panels[0], whole, "whole prior"), (panels[1], zoom, "zoom on the final ellipse")):
-        ax.add_patch(PolygonPatch(ordered(poly.vertices()), closed=True, fc="#dddddd", ec="k", lw=0.8))
+        ax.add_patch(PolygonPatch(poly.boundary(), closed=True, fc="#dddddd", ec="k", lw=0.8))
         band = Polytope(W[k:k + 1], y[k:k + 1], E_MAX, box=(lo, hi))
         if band.is_empty():                                  # an outlier's band may lie outside the window
             ax.text(0.5, 0.03, "the strip lies outside this window", transform=ax.transAxes, ha="center",
                     fontsize=10, color=COLORS[s["event"]])
         else:
-            ax.add_patch(PolygonPatch(ordered(band.vertices()), closed=True, fc=COLORS[s["event"]], alpha=0.3,
+            ax.add_patch(PolygonPatch(band.boundary(), closed=True, fc=COLORS[s["event"]], alpha=0.3,
                                       lw=0))
         ax.plot(*s["E_prev"].boundary().T, "--", color="#56B4E9", lw=1.5)
         ax.plot(*s["E"].boundary().T, color=OBE_COLOR, lw=2)
@@ -176,7 +172,7 @@ for c, est in fits.items():
 crit = pd.DataFrame.from_dict(crit_rows, orient="index").rename_axis("criterion")
 fig_c = Figure(figsize=(10.0, 4.4), layout="constrained")
 ax1, ax2 = fig_c.subplots(1, 2)
-ax1.add_patch(PolygonPatch(ordered(final_P.vertices()), closed=True, fc="#dddddd", ec="k", lw=1, label="exact polygon"))
+ax1.add_patch(PolygonPatch(final_P.boundary(), closed=True, fc="#dddddd", ec="k", lw=1, label="exact polygon"))
 for i, (c, est) in enumerate(fits.items()):
     st = series_style(i)
     ax1.plot(*est.set.boundary().T, color=st["color"], ls=st["linestyle"], lw=1.8, label=f"OBE ({c})")
@@ -206,7 +202,7 @@ for i, perm in enumerate(perms):
 order = pd.DataFrame(order_rows).set_index("order")
 fig_o = Figure(figsize=(8.0, 4.8), layout="constrained")
 ax = fig_o.subplots()
-ax.add_patch(PolygonPatch(ordered(final_P.vertices()), closed=True, fc="#dddddd", ec="k", lw=1, label="exact polygon"))
+ax.add_patch(PolygonPatch(final_P.boundary(), closed=True, fc="#dddddd", ec="k", lw=1, label="exact polygon"))
 for i, E in enumerate(order_ells):
     st = series_style(i)
     ax.plot(*E.boundary().T, color=st["color"], ls=st["linestyle"], lw=1.6, label=order_rows[i]["order"])

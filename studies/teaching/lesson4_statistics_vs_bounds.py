@@ -72,10 +72,6 @@ def guaranteed(W, y):
     return (None if cons.empty else P), float(cons)
 
 
-def ordered(v):
-    c = v.mean(axis=0)
-    return v[np.argsort(np.arctan2(v[:, 1] - c[1], v[:, 0] - c[0]))]
-
 
 # %% [markdown]
 # ## One experiment per scenario
@@ -91,7 +87,7 @@ for ax, kind in zip(axes, SCENARIOS, strict=False):
     P, gamma = guaranteed(W, y)
     obe = OBE(2, prior=Box.from_center(prior, prior_half), names=("J", "mgl")).fit(W, y, E_MAX)
     if P is not None:
-        ax.add_patch(PolygonPatch(ordered(P.vertices()), closed=True, fc="#dddddd", ec="k", lw=1))
+        ax.add_patch(PolygonPatch(P.boundary(), closed=True, fc="#dddddd", ec="k", lw=1))
     ax.plot(*obe.set.boundary().T, color=OBE_COLOR, lw=1.8)
     ax.plot(*obe.center, "o", color=OBE_COLOR, ms=5)      # visible even when the ellipse is tiny
     ax.plot(*ls.set.boundary().T, color=OLS_COLOR, lw=1.8, ls="--")

@@ -55,11 +55,6 @@ qdd_B, q_B = W_B[:, 0], np.arcsin(W_B[:, 1])                   # the trajectory 
 TRAJ = {"A": W_A, "B": W_B}
 
 
-def ordered(vertices):
-    """Vertices of a convex polygon in counter-clockwise order (for drawing)."""
-    c = vertices.mean(axis=0)
-    return vertices[np.argsort(np.arctan2(vertices[:, 1] - c[1], vertices[:, 0] - c[0]))]
-
 
 def n_directions(W, tol=1e-6):
     """Number of distinct strip directions (row angles modulo pi)."""
@@ -105,7 +100,7 @@ exact = {}
 for name, W in TRAJ.items():
     P = Polytope(W, W @ theta_true, E_MAX)
     box = P.bounds()
-    verts = ordered(P.vertices())
+    verts = P.boundary()[:-1]   # counter-clockwise
     x, yv = verts.T
     area = 0.5 * abs(np.dot(x, np.roll(yv, -1)) - np.dot(yv, np.roll(x, -1)))     # shoelace, from the vertices
     exact[name] = {"P": P, "box": box, "vertices": verts, "area": area}
@@ -138,10 +133,10 @@ for k in steps:
         for j in range(k):
             band = Polytope(W[j:j + 1], y0[j:j + 1], E_MAX, box=view)
             newest = j == k - 1
-            ax.add_patch(PolygonPatch(ordered(band.vertices()), closed=True, fc="#E69F00" if newest else "#56B4E9",
+            ax.add_patch(PolygonPatch(band.boundary(), closed=True, fc="#E69F00" if newest else "#56B4E9",
                                       alpha=0.35 if newest else 0.10, ec="none"))
         Pk = Polytope(W[:k], y0[:k], E_MAX, box=view)
-        ax.add_patch(PolygonPatch(ordered(Pk.vertices()), closed=True, fc="none", ec=COLORS[name], lw=2.0))
+        ax.add_patch(PolygonPatch(Pk.boundary(), closed=True, fc="none", ec=COLORS[name], lw=2.0))
         ax.plot(*theta_true, "*", color=PALETTE["truth"], ms=10)
         ax.set(xlim=(view[0][0], view[1][0]), ylim=(view[0][1], view[1][1]), aspect="equal", xlabel=LABELS[0])
         ax.set_title(f"trajectory {name}: {k} strip{'s' * (k > 1)}, area {fmt(Pk.volume(), 3)}", fontsize=12)

@@ -270,6 +270,19 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     return res
 
 
+def _combined_quadric(Gs, mid, half, tau, extra=(), sig=()) -> tuple[np.ndarray, np.ndarray, float]:
+    """(SA, Sb, Sc) of sum_k tau_k q_k + sum_i sig_i q_i: the strips' quadrics (g g^T, -mid g,
+    mid^2 - half^2) and the ``extra`` quadrics (A, b, c), weighted by their multipliers; n = Gs's
+    columns, or the first extra quadric's size."""
+    n = Gs.shape[1] if Gs.size else extra[0][0].shape[0]
+    SA = (Gs.T * tau) @ Gs if Gs.size else np.zeros((n, n))
+    Sb = -(Gs.T @ (mid * tau)) if Gs.size else np.zeros(n)
+    Sc = float(np.sum((mid**2 - half**2) * tau)) if Gs.size else 0.0
+    for s_, (Ai, bi, ci) in zip(sig, extra, strict=True):
+        SA, Sb, Sc = SA + s_ * Ai, Sb + s_ * bi, Sc + s_ * ci
+    return SA, Sb, Sc
+
+
 def _s_procedure(Gs, mid, half, extra, allow_fallback: bool, what: str, study_scale: bool = False):
     """Minimum-volume ellipsoid containing ∩_i {|g_i^T z - mid_i| <= half_i} ∩ (extra quadrics)
     by the S-procedure ([Boyd1994] §3.7.2; [refs §SDP]).
@@ -318,11 +331,7 @@ def _s_procedure(Gs, mid, half, extra, allow_fallback: bool, what: str, study_sc
     solver, status = _solve(prob, allow_fallback, what, study_scale, CLARABEL_DENSE_LINALG)
     tau_v = np.clip(tau.value, 0, None) if m else np.zeros(0)
     sig_v = np.clip(sig.value, 0, None) if extra else np.zeros(0)
-    A0 = (Gs.T * tau_v) @ Gs if m else np.zeros((n, n))
-    b0 = -(Gs.T @ (mid * tau_v)) if m else np.zeros(n)
-    c0 = float(np.sum((mid**2 - half**2) * tau_v)) if m else 0.0
-    for s, (Ai, bi, ci) in zip(sig_v, extra, strict=True):
-        A0, b0, c0 = A0 + s * Ai, b0 + s * bi, c0 + s * ci
+    A0, b0, c0 = _combined_quadric(Gs, mid, half, tau_v, extra, sig_v)
     A0 = 0.5 * (A0 + A0.T)
     try:
         r2 = float(b0 @ np.linalg.solve(A0, b0)) - c0
@@ -352,11 +361,7 @@ def _certified(A0, b0, Gs, mid, half, tau, extra, sig, r2_bound: float, what: st
     except np.linalg.LinAlgError:
         raise SolverError(f"{what}: the SDP returned a shape matrix that is not positive definite.") from None
     center = -np.linalg.solve(A0, b0)
-    SA = (Gs.T * tau) @ Gs if Gs.size else np.zeros_like(A0)
-    Sb = -(Gs.T @ (mid * tau)) if Gs.size else np.zeros_like(b0)
-    Sc = float(np.sum((mid**2 - half**2) * tau)) if Gs.size else 0.0
-    for s, (Ai, bi, ci) in zip(sig, extra, strict=True):
-        SA, Sb, Sc = SA + s * Ai, Sb + s * bi, Sc + s * ci
+    SA, Sb, Sc = _combined_quadric(Gs, mid, half, tau, extra, sig)
     F = np.block([[A0 - SA, (b0 - Sb)[:, None]],
                   [(b0 - Sb)[None, :], np.array([[b0 @ np.linalg.solve(A0, b0) - 1 - Sc]])]])
     mu = max(0.0, float(np.linalg.eigvalsh(0.5 * (F + F.T))[-1]))
@@ -378,10 +383,9 @@ def _outer_multipliers(Gs, mid, half, allow_fallback: bool):
     except SolverError:
         return _s_procedure(Gs, mid, half, [], allow_fallback, "outer_ellipsoid", study_scale=True)
     n = Gs.shape[1]
-    A0 = (Gs.T * tau) @ Gs
+    A0, b0, c0 = _combined_quadric(Gs, mid, half, tau)
     A0 = 0.5 * (A0 + A0.T)
-    b0 = -(Gs.T @ (mid * tau))
-    r2 = float(b0 @ np.linalg.solve(A0, b0)) - float(np.sum((mid**2 - half**2) * tau))
+    r2 = float(b0 @ np.linalg.solve(A0, b0)) - c0
     if not r2 > 0:
         return _s_procedure(Gs, mid, half, [], allow_fallback, "outer_ellipsoid", study_scale=True)
     A0, b0, tau = A0 / r2, b0 / r2, tau / r2
