@@ -282,10 +282,46 @@ def cmd_report(args) -> int:
     context = _study_processes(jobs)
     configs = _load_studies(studies)
     written = _run_studies(configs, out, args.quiet, jobs, context)
+    compared = [cfg for cfg in configs if cfg.experiment.design.compare]
+    if compared:
+        page = _write_excitation(compared, out, args.quiet)
+        if not args.quiet:
+            print(f"excitation design: {page}")
     _refresh_index(out, args.quiet)
     for _, _, verdict in written:
         print(verdict)
     return _gate(written, args.allow_failures)
+
+
+def _write_excitation(configs, out: Path, quiet: bool) -> Path:
+    """The three excitation criteria side by side for ``configs`` (:mod:`boundid.studies.excitation`),
+    one BLAS thread, written to out/excitation/index.html."""
+    from boundid.report.excitation_page import write_excitation_page
+    from boundid.report.html import EXCITATION_DIR
+    from boundid.studies.campaign import one_thread
+    from boundid.studies.excitation import compare_criteria
+    from boundid.studies.registry import make_robot
+
+    comparisons = []
+    with one_thread(), _progress(quiet) as progress:
+        for cfg in configs:
+            with progress.stage(f"{cfg.name}: excitation criteria side by side"):
+                comparisons.append(compare_criteria(cfg, make_robot(cfg.robot, cfg.robot_options)))
+    return write_excitation_page(comparisons, out / EXCITATION_DIR)
+
+
+def cmd_excitation(args) -> int:
+    from dataclasses import replace
+
+    configs = _load_studies(args.study, args.seed)
+    if args.candidates is not None:
+        configs = [replace(cfg, experiment=replace(cfg.experiment, design=replace(cfg.experiment.design,
+                                                                                    candidates=args.candidates)))
+                   for cfg in configs]
+    page = _write_excitation(configs, Path(args.out), args.quiet)
+    _refresh_index(Path(args.out))
+    print(page)
+    return 0
 
 
 def cmd_campaign(args) -> int:
@@ -449,6 +485,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=str(DEFAULT_REPORTS), help="reports folder (default: reports)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_campaign)
+
+    p = sub.add_parser("excitation", help="score candidate excitations by the guaranteed and classical criteria, "
+                                          "side by side (reports/excitation/)", epilog=EXIT_HELP,
+                       description="For each study, draws [experiment.design] candidates excitations of its own "
+                                   "experiment (seeded), scores each by the guaranteed criterion (the exact design "
+                                   "set's widths at the [exact] bound), cond(W) and ln det W^T W, then records each "
+                                   "criterion's pick and bounds it exactly, by the study's OBE and by WLS; writes "
+                                   "<out>/excitation/index.html. `boundid report` does this for the studies whose "
+                                   "[experiment.design] sets compare = true.")
+    p.add_argument("study", nargs="+", help="study file(s) of simulated experiments, e.g. studies/h4_obe.toml")
+    p.add_argument("--candidates", type=_integer(1, ">= 1"), help="candidates per study (default: each study's "
+                   "[experiment.design] candidates)")
+    p.add_argument("--seed", type=seed, help="override the studies' seed (an integer >= 0)")
+    p.add_argument("--out", default=str(DEFAULT_REPORTS), help="reports folder (default: reports)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(func=cmd_excitation)
 
     p = sub.add_parser("bench", help="run the benchmarks, write reports/benchmarks/")
     p.add_argument("--out", default=str(DEFAULT_REPORTS))

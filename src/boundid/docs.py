@@ -107,6 +107,18 @@ DESCRIPTIONS = {
     "experiment.validation_duration_s": "Length of a second, different trajectory for cross-validation [s] "
                                         "(closed loop and tracking; 0: none).",
     "experiment.options": "Settings of the closed-loop experiment; each option's default is listed below.",
+    "experiment.excitation": "The identification run's excitation: \"default\" the experiment's own (the paper's "
+                             "torques in open loop, a seeded random Fourier trajectory otherwise), or designed before "
+                             "the experiment by a criterion: \"guaranteed\" (the smallest exact design set at [exact] "
+                             "e_max), \"cond\" (the smallest condition number of W), \"logdet\" (the largest "
+                             "ln det W^T W); see experiment.design.",
+    "experiment.design": "The excitation search (experiment.excitation, and the page of the three criteria side by "
+                         "side, reports/excitation/).",
+    "experiment.design.candidates": "Excitations drawn from the experiment's own family (seeded by the study's seed) "
+                                    "and scored by every criterion: the search budget.",
+    "experiment.design.rate_hz": "Sample rate of each candidate's design regression (its noise-free motion) [Hz].",
+    "experiment.design.compare": "true: `boundid report` records each criterion's pick and writes the criteria side "
+                                 "by side (exact, OBE and WLS widths) in reports/excitation/.",
     "experiment.noise": "What the measurement adds.",
     "experiment.noise.encoder_counts_per_rev": "Encoder resolution (e.g. 65536 for 16 bits); absent: exact angles.",
     "experiment.noise.torque": "Additive torque noise.",

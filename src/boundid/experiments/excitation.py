@@ -70,3 +70,25 @@ class RampedMultisine:
         sines = np.asarray(self.amplitude) * np.sin(np.asarray(self.frequency) * t + np.asarray(self.phase))
         tau = ramp + sines.sum(axis=2)
         return tau[0] if scalar else tau
+
+
+def random_multisine(reference: RampedMultisine, rng: np.random.Generator,
+                     frequency_band: tuple[float, float] | None = None) -> RampedMultisine:
+    """A random torque law of ``reference``'s family within its peak torques.
+
+    The same ramps (offset, rate) and number of sines per joint; each joint's total sine amplitude
+    sum_i |A_ji| (hence the bound |offset_j| + sum_i |A_ji| on its torque) split at random
+    (uniform on the simplex), frequencies uniform in ``frequency_band`` rad/s (default: 0.1 to 1
+    times the reference's highest), phases uniform in [0, 2 pi). An excitation candidate for the
+    open-loop experiment (:mod:`boundid.studies.excitation`).
+    """
+    amp = np.abs(np.asarray(reference.amplitude, dtype=float))
+    n, k = amp.shape
+    lo, hi = frequency_band or (0.1 * reference.max_frequency, reference.max_frequency)
+    if not 0 < lo <= hi:
+        raise InputError(f"frequency_band must be 0 < low <= high rad/s, got {frequency_band}.")
+    split = rng.dirichlet(np.ones(k), size=n)
+    return RampedMultisine(offset=tuple(reference.offset), rate=tuple(reference.rate),
+                           amplitude=tuple(map(tuple, split * amp.sum(axis=1, keepdims=True))),
+                           frequency=tuple(map(tuple, rng.uniform(lo, hi, (n, k)))),
+                           phase=tuple(map(tuple, rng.uniform(0.0, 2 * np.pi, (n, k)))))

@@ -296,12 +296,15 @@ def simulated_truth(robot, config: H4ExperimentConfig | None = None):
 
 
 def simulate_h4_experiment(rng: np.random.Generator, config: H4ExperimentConfig | None = None,
-                           robot=None) -> tuple[dict[str, H4Recording], dict]:
+                           robot=None, trajectory: SegmentedTrajectory | None = None
+                           ) -> tuple[dict[str, H4Recording], dict]:
     """Simulate the paper's two closed-loop experiments ("identification", "validation").
 
     robot : the identification model (default H4Robot()); the simulated truth is
     :func:`simulated_truth`. Two different exciting trajectories are drawn from
-    ``rng``. Returns the recordings and facts (condition numbers, saturation, cut-off).
+    ``rng`` (the identification run tracks ``trajectory`` instead, when given: e.g. designed,
+    :mod:`boundid.studies.excitation`). Returns the recordings and facts (condition numbers,
+    saturation, cut-off).
     """
     from boundid.models.h4 import H4Robot
 
@@ -313,9 +316,12 @@ def simulate_h4_experiment(rng: np.random.Generator, config: H4ExperimentConfig 
     controller = JointPID.from_bandwidth(np.diag(robot.mass_matrix(qh, prior)), cfg.bandwidth_hz)
     recs, info = {}, {"cutoff_hz": cfg.cutoff_hz or cutoff_from_bandwidth(cfg.bandwidth_hz)}
     for name, duration in (("identification", cfg.duration_s), ("validation", cfg.validation_duration_s)):
-        traj = exciting_trajectory(robot, rng, duration=duration, slow_fraction=cfg.slow_fraction,
-                                   fast_period=cfg.fast_period)
-        if cfg.optimize_evals > 0:
+        if name == "identification" and trajectory is not None:
+            traj = trajectory
+        else:
+            traj = exciting_trajectory(robot, rng, duration=duration, slow_fraction=cfg.slow_fraction,
+                                       fast_period=cfg.fast_period)
+        if cfg.optimize_evals > 0 and traj is not trajectory:
             traj, opt = optimize_trajectory(robot, traj, max_evals=cfg.optimize_evals)
             info[f"{name}_optimisation"] = opt
         check_in_workspace(robot, traj)

@@ -92,12 +92,14 @@ def limited_fourier(robot, rng: np.random.Generator, duration: float, cfg: Track
     return traj
 
 
-def tracking_experiment(robot, rng: np.random.Generator,
-                        cfg: TrackingConfig) -> tuple[dict[str, TrackedRecording], dict]:
+def tracking_experiment(robot, rng: np.random.Generator, cfg: TrackingConfig,
+                        trajectory: SegmentedTrajectory | None = None) -> tuple[dict[str, TrackedRecording], dict]:
     """Simulate the identification run (and the validation run when validation_duration_s > 0).
 
     robot : a model with joint limits and the "tracking" experiment (a URDF arm); its true
-    parameters drive the simulation, its a-priori ones the feedforward and the gains. Returns the
+    parameters drive the simulation, its a-priori ones the feedforward and the gains.
+    trajectory : the identification run's trajectory (e.g. designed,
+    :mod:`boundid.studies.excitation`); None draws one from ``rng``. Returns the
     recordings by name and facts for the report (condition numbers, limit usage, tracking error,
     saturation).
     """
@@ -116,7 +118,8 @@ def tracking_experiment(robot, rng: np.random.Generator,
     for name, duration in runs:
         if duration <= 0:
             continue
-        traj = limited_fourier(robot, rng, duration, cfg, info, name)
+        traj = trajectory if name == "identification" and trajectory is not None else \
+            limited_fourier(robot, rng, duration, cfg, info, name)
         t = np.arange(int(round(duration * cfg.fs_hz))) / cfg.fs_hz
         q_ref, qd_ref, qdd_ref = traj.evaluate(t)
         feedforward = robot.inverse_dynamics(q_ref, qd_ref, qdd_ref, prior)

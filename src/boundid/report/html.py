@@ -674,6 +674,8 @@ def write_index(reports_dir: str | Path, studies=None, title: str = "boundid rep
 
 #: sub-folders of the reports folder that hold no study: the lessons and the benchmarks
 TEACHING_DIR, BENCHMARKS_DIR, CAMPAIGN_DIR = "teaching", "benchmarks", "campaign"
+#: the excitation criteria side by side (:mod:`boundid.report.excitation_page`)
+EXCITATION_DIR = "excitation"
 
 _SITE_INTRO = ("Every page is self-contained (figures embedded, no network), so the folder can be copied or opened "
                "offline; its header links back here and to its files (CSV and LaTeX of every table, PNG and SVG of "
@@ -694,6 +696,8 @@ _ABSENT = {"studies": "No study page yet: make report (or boundid run <study fil
            "campaigns": "No campaign yet: make campaign (boundid campaign <study file>) runs the Monte Carlo "
                         "replicates of a study's noise scenarios and writes its page.",
            "teaching": "No handout yet: make teach (boundid teach) runs the lessons in studies/teaching.",
+           "excitation": "No excitation design page yet: make report writes it for the studies whose "
+                         "[experiment.design] sets compare = true (or boundid excitation <study file>).",
            "benchmarks": "No benchmark page yet: make bench (boundid bench) measures and writes it."}
 
 
@@ -735,11 +739,12 @@ def write_site_index(reports_dir: str | Path, title: str = "boundid reports") ->
     few sentences, a figure of every study's guaranteed sets against its exact LP bounds (read from
     each ``results.csv``; its PNG, SVG and CSV written beside the index), a table of each study's
     ``verdict.json`` and the papers reproduced, cited in full. Then every page found under
-    ``reports_dir``, each with its full description (its meta description), in four sections:
+    ``reports_dir``, each with its full description (its meta description), in five sections:
 
     - studies: ``<name>/index.html`` (with links to its ``results.csv`` and campaign, if present);
     - campaigns: ``<name>/campaign/index.html``;
     - the teaching kit: ``teaching/index.html`` and each ``teaching/<lesson>/index.html``;
+    - the excitation design: ``excitation/index.html``;
     - benchmarks: ``benchmarks/index.html``;
 
     and, once there is a page, in a last section, the documentation (``docs/index.html``, when it
@@ -754,7 +759,7 @@ def write_site_index(reports_dir: str | Path, title: str = "boundid reports") ->
     studies: list[str] = []
     for folder in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")):
         page = folder / "index.html"
-        if folder.name in (TEACHING_DIR, BENCHMARKS_DIR, DOCS_DIR) or not page.is_file():
+        if folder.name in (TEACHING_DIR, BENCHMARKS_DIR, DOCS_DIR, EXCITATION_DIR) or not page.is_file():
             continue
         links = [("results.csv", f"{folder.name}/results.csv")] if (folder / "results.csv").is_file() else []
         campaign = folder / CAMPAIGN_DIR / "index.html"
@@ -775,6 +780,10 @@ def write_site_index(reports_dir: str | Path, title: str = "boundid reports") ->
         l_title, l_text = _read_head(lesson)
         groups["teaching"].append(_entry(lesson.relative_to(root).as_posix(), l_title or lesson.parent.name, l_text,
                                          lesson.parent.name))
+    design = root / EXCITATION_DIR / "index.html"
+    if design.is_file():
+        e_title, e_text = _read_head(design)
+        groups["excitation"].append(_entry(f"{EXCITATION_DIR}/index.html", e_title or "excitation design", e_text))
     bench = root / BENCHMARKS_DIR / "index.html"
     if bench.is_file():
         b_title, b_text = _read_head(bench)
@@ -787,7 +796,7 @@ def write_site_index(reports_dir: str | Path, title: str = "boundid reports") ->
         groups["reference"].insert(0, _entry(DOCS_PAGE, d_title or "Documentation", d_text))
     front = front_matter(root, studies, refs_linked=REFERENCES_PAGE in site_pages)
     headings = {"studies": "Studies", "campaigns": "Monte Carlo campaigns", "teaching": "Teaching kit",
-                "benchmarks": "Benchmarks",
+                "excitation": "Excitation design", "benchmarks": "Benchmarks",
                 "reference": ("Documentation, glossary" if docs.is_file() else "Glossary") + " and references"}
     headings = {k: h for k, h in headings.items() if k in _ABSENT or groups[k]}
     nav = ("<nav>" + "".join(f'<a href="#{k}">{html.escape(h)}</a>'

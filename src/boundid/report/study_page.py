@@ -20,6 +20,7 @@ import pandas as pd
 
 from boundid.errors import RUN_FAILURES
 from boundid.report import figures as F
+from boundid.report.excitation_page import design_section
 from boundid.report.html import Page
 from boundid.report.output import replace_folder
 from boundid.report.tables import deviation_percent, estimate_summary, parameter_table
@@ -942,6 +943,9 @@ def _page(r: StudyResult) -> Page:
                f"{PLATFORM_RTOL:g} wherever both kernels give the same regression rows (a rounding difference can flip "
                "an encoder count in a simulated feedback loop), except the limited polytope's, whose choice of "
                "strips may differ.", name="setup")
+    if r.design is not None:
+        with guard("section", "excitation design"):
+            design_section(page, r.design)
     with guard("section", "base parameters"):
         _base_parameter_section(page, r)
     paper = {"h4": _paper_section_h4, "direct_drive": _paper_section_direct_drive}.get(cfg.robot)
@@ -990,6 +994,7 @@ SHADOW_RTOL = 1e-3
 
 #: what each stage of :func:`boundid.studies.runner.run_study` and of the exact optima does, for the time table
 STAGE_NAMES = {
+    "design": "design the excitation (the candidates' exact design sets)",
     "data": "simulate and measure, or read the recording", "regressions": "regressions (filter, differentiate, rows)",
     "gamma_star": "gamma*, the smallest bound the data allow (LPs)", "estimators": "every estimator",
     "exact": "exact optima, in all", "consistency": "consistency LP (gamma* at the bound)",

@@ -38,7 +38,7 @@ REGRESSIONS = ("inverse_dynamic", "filtered_dynamic", "supplied_energy", "filter
 SDP_SETS = ("outer", "inner", "john")
 # folders other commands write beside the study pages (boundid bench, boundid teach): a study may
 # not take their name, or its report would replace them
-RESERVED_NAMES = ("benchmarks", "teaching")
+RESERVED_NAMES = ("benchmarks", "teaching", "excitation")
 
 
 @dataclass(frozen=True)
@@ -66,6 +66,27 @@ class MeasuredData:
     holdout_fraction: float = 0.0
 
 
+#: [experiment] excitation: "default" keeps the experiment's own excitation (the paper's torques of the
+#: open-loop experiment, a seeded random Fourier trajectory otherwise); the others design it
+#: (:mod:`boundid.experiments.excitation_design`) by that criterion
+EXCITATIONS = ("default", "guaranteed", "cond", "logdet")
+
+
+@dataclass(frozen=True)
+class ExcitationSearchConfig:
+    """The ``[experiment.design]`` table: the excitation search's budget and settings.
+
+    candidates : trajectories drawn (seeded by the study's seed) and scored by every criterion;
+    rate_hz : Hz, the sample rate of each candidate's design regression (the search's rows);
+    compare : whether ``boundid report`` writes this study's side-by-side of the three criteria
+    (reports/excitation/) with exact, OBE and WLS widths of each criterion's pick.
+    """
+
+    candidates: int = 12
+    rate_hz: float = 10.0
+    compare: bool = False
+
+
 @dataclass(frozen=True)
 class ExperimentConfig:
     """The study's ``[experiment]`` table: where the data come from (``source``: "simulate" or
@@ -85,6 +106,8 @@ class ExperimentConfig:
     validation_duration_s: float = 0.0
     options: dict = field(default_factory=dict)
     measured: MeasuredData | None = None
+    excitation: str = "default"  # "default" (the experiment's own) | a criterion of EXCITATION_CRITERIA
+    design: ExcitationSearchConfig = ExcitationSearchConfig()
 
 
 @dataclass(frozen=True)
@@ -399,11 +422,22 @@ def _experiment(sec: Section, base: Path) -> ExperimentConfig:
         encoder_counts_per_rev=counts,
         structural_error=sec.float("structural_error", 0.0, lo=0.0),
         validation_duration_s=sec.float("validation_duration_s", 0.0, lo=0.0),
+        excitation=sec.str("excitation", "default", choices=EXCITATIONS),
+        design=_design(sec.section("design")),
     )
     known = experiment_options(exp.control)
     exp = replace(exp, options=sec.options("options", known, f"the {exp.control.replace('_', '-')} experiment"))
     sec.check_unknown()
     return exp
+
+
+def _design(sec: Section) -> ExcitationSearchConfig:
+    """[experiment.design]: the excitation search's settings."""
+    out = ExcitationSearchConfig(candidates=sec.int("candidates", 12, lo=1, hi=10_000),
+                                 rate_hz=sec.float("rate_hz", 10.0, lo=0.0, strict_lo=True),
+                                 compare=sec.bool("compare", False))
+    sec.check_unknown()
+    return out
 
 
 def _check_size(cfg: StudyConfig, model) -> None:
@@ -547,6 +581,11 @@ def load_study(path: str | Path) -> StudyConfig:
                                 "gamma*, the smallest bound the data allow).")
     if exact.regression is None and exact.e_max_rule is not None:
         raise ex.error("e_max_rule", "needs `regression`: gamma* is computed on the exact regression.")
+    designs = experiment.excitation != "default" or experiment.design.compare
+    if designs and (exact.e_max is None):
+        raise StudyError(f"{path}: experiment.excitation = {experiment.excitation!r} (or experiment.design.compare) "
+                         "scores trajectories at the bound before any data exist: give [exact] e_max as a number "
+                         "(or one per joint), not e_max_rule.")
     ex.check_unknown()
     cfg = StudyConfig(
         name=name,

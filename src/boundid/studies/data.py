@@ -56,8 +56,10 @@ def _check_held_out(held_out: Recording, fraction: float, n_joints: int, pp, whe
                          + (" or record longer." if 1.05 * need / total > 0.5 else "."))
 
 
-def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:
-    """Simulate (open or closed loop) and measure, or read the study's recording."""
+def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator, excitation=None) -> StudyData:
+    """Simulate (open or closed loop) and measure, or read the study's recording. ``excitation``:
+    the identification run's designed excitation (:mod:`boundid.studies.excitation`: a torque law for
+    the open-loop experiment, a trajectory for the others); None: the experiment's own."""
     exp = cfg.experiment
     if exp.source == "measured":
         m = exp.measured
@@ -80,20 +82,20 @@ def acquire(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> St
             _check_held_out(held_out, m.holdout_fraction, model.n_joints, pp, where)
         return StudyData(recording=rec, validation=held_out, info=info)
     if exp.control == "open_loop":
-        return _open_loop(cfg, model, rng)
+        return _open_loop(cfg, model, rng, excitation)
     if exp.control == "tracking":
-        return _tracking(cfg, model, rng)
-    recording, validation, info, clean_tau = closed_loop_data(cfg, model, rng)
+        return _tracking(cfg, model, rng, excitation)
+    recording, validation, info, clean_tau = closed_loop_data(cfg, model, rng, excitation)
     return StudyData(recording=recording, validation=validation, info=info, clean_tau=clean_tau)
 
 
-def _open_loop(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:
+def _open_loop(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator, excitation=None) -> StudyData:
     exp = cfg.experiment
     if "open_loop" not in model.experiments:
         raise StudyError(f"{cfg.file}: experiment.control = 'open_loop' drives the paper's 2-joint torques "
                          f"(31)-(32), which the {cfg.robot} model does not support; its experiments: "
                          f"{', '.join(model.experiments) or 'none (use measured data)'}.")
-    excitation = RampedMultisine.direct_drive_paper()
+    excitation = RampedMultisine.direct_drive_paper() if excitation is None else excitation
     traj = simulate_open_loop(model, excitation, exp.duration_s, exp.sample_period_s,
                               coulomb_width=exp.coulomb_width_rad_s)
     meas = measure(traj, exp.encoder_counts_per_rev, exp.torque_noise, rng)
@@ -101,19 +103,25 @@ def _open_loop(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) ->
                      info={"torque outliers": int(meas.info["outliers"].sum())})
 
 
-def _tracking(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator) -> StudyData:
-    """The tracking experiment of a serial arm (:mod:`boundid.experiments.tracking`)."""
-    from boundid.experiments.tracking import TrackingConfig, tracking_experiment
+def tracking_config(cfg: StudyConfig):
+    """The tracking experiment (:class:`boundid.experiments.tracking.TrackingConfig`) of the study's [experiment]."""
+    from boundid.experiments.tracking import TrackingConfig
 
     exp = cfg.experiment
-    if "tracking" not in model.experiments:
-        raise StudyError(f"{cfg.file}: experiment.control = 'tracking' needs an arm with joint limits (a URDF robot); "
-                         f"the {cfg.robot} model's experiments: {', '.join(model.experiments) or 'none'}.")
-    tcfg = TrackingConfig(duration_s=exp.duration_s, validation_duration_s=exp.validation_duration_s,
+    return TrackingConfig(duration_s=exp.duration_s, validation_duration_s=exp.validation_duration_s,
                           fs_hz=1.0 / exp.sample_period_s, counts_per_rev=exp.encoder_counts_per_rev or 65536,
                           coulomb_width=exp.coulomb_width_rad_s, torque_noise=exp.torque_noise,
                           **exp.options)  # checked against registry.tracking_options() when the study was read
-    recs, info = tracking_experiment(model, rng, tcfg)
+
+
+def _tracking(cfg: StudyConfig, model: RobotModel, rng: np.random.Generator, trajectory=None) -> StudyData:
+    """The tracking experiment of a serial arm (:mod:`boundid.experiments.tracking`)."""
+    from boundid.experiments.tracking import tracking_experiment
+
+    if "tracking" not in model.experiments:
+        raise StudyError(f"{cfg.file}: experiment.control = 'tracking' needs an arm with joint limits (a URDF robot); "
+                         f"the {cfg.robot} model's experiments: {', '.join(model.experiments) or 'none'}.")
+    recs, info = tracking_experiment(model, rng, tracking_config(cfg), trajectory)
 
     def recording(name: str) -> Recording | None:
         r = recs.get(name)

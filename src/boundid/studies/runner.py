@@ -20,6 +20,7 @@ from boundid.studies.bounds import BoundRule, GammaStar, gamma_star
 from boundid.studies.config import StudyConfig, prior_box
 from boundid.studies.data import StudyData, acquire
 from boundid.studies.estimation import run_estimator
+from boundid.studies.excitation import ExcitationDesign, design_excitation
 from boundid.studies.paper_experiments import paper_experiments
 from boundid.studies.physical_stage import PhysicalResult, physical_stage
 from boundid.studies.progress import QUIET, Progress
@@ -244,6 +245,8 @@ class StudyResult:
     table: pd.DataFrame
     timings: dict[str, float]
     published: PublishedComparison | None = None
+    #: the excitation search, when [experiment] excitation designs the identification run's excitation
+    design: ExcitationDesign | None = None
 
 
 def reference_values(cfg: StudyConfig, model: RobotModel) -> tuple[np.ndarray, str] | None:
@@ -337,10 +340,17 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
     rng = np.random.default_rng(cfg.seed)
     model = make_robot(cfg.robot, cfg.robot_options)
 
+    design = None
+    if cfg.experiment.excitation != "default":
+        t0 = time.perf_counter()
+        with progress.stage(f"{cfg.name}: design the excitation ({cfg.experiment.design.candidates} candidates)"):
+            design = design_excitation(cfg, model)
+        timings["design"] = time.perf_counter() - t0
+
     t0 = time.perf_counter()
     with progress.stage(f"{cfg.name}: " + ("read the recording" if cfg.experiment.source == "measured"
                                            else "simulate and measure")):
-        data = acquire(cfg, model, rng)
+        data = acquire(cfg, model, rng, design.excitation if design is not None else None)
     timings["data"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -431,4 +441,4 @@ def run_study(cfg: StudyConfig, progress: Progress = QUIET) -> StudyResult:
             failures.append(Failure("validation", "the paper's own experiments", _reason(exc)))
     timings["paper"] = time.perf_counter() - t0
     return StudyResult(cfg, model, data, regressions, estimates, failures, exact, validation,
-                       tidy_table(cfg, model, estimates, exact), timings, published)
+                       tidy_table(cfg, model, estimates, exact), timings, published, design)
