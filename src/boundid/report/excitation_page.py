@@ -128,7 +128,10 @@ def excitation_page(comparisons: list[CriteriaComparison]) -> Page:
                      f"(95 % intervals). {cmp.time_s:.1f} s for the picks.")
         page.table(sm, "Each pick: the criteria's values on its search rows, the mean widths over the prior widths "
                        "(design: guaranteed; exact, OBE, WLS: on the recording), and how many of the "
-                       f"{len(cmp.names)} parameters it identifies and narrows.", name=f"{cmp.study}_summary")
+                       f"{len(cmp.names)} parameters it identifies (twice the design width below the prior width: "
+                       "narrowed by any recording within the bound) and narrows on its recording, and those it does "
+                       "not identify.",
+                   name=f"{cmp.study}_summary")
         page.figure(_width_figure(cmp), "Per parameter, each pick's width over the prior width: the design width "
                                         "(top; twice it bounds every exact interval the trajectory can leave) and the "
                                         "exact width on the recording (bottom); dotted: the prior width.",

@@ -54,7 +54,8 @@ NARROWED = 0.99
 #: design set itself; errors that fill the bound cut the set far below what real data, whose bound is
 #: chosen with a margin, leave)
 ERROR_FRACTION = 0.5
-#: the picks compared: the first candidate drawn (what an undesigned run of this family gets) and
+#: the picks compared: the first candidate drawn (a random member of the family, undesigned; not the
+#: study's own excitation, which the experiment draws from its own stream or takes from the paper) and
 #: each criterion's best
 PICKS = ("first draw", *CRITERIA)
 
@@ -212,7 +213,8 @@ class CriteriaComparison:
     time_s: float
 
     def summary(self) -> pd.DataFrame:
-        """One row per pick: its criteria's values, the mean widths and the parameters identified."""
+        """One row per pick: its criteria's values, the mean widths, how many parameters it identifies
+        (and narrows on its recording) and those it does not identify."""
         sc = self.design.search.scores
         rows = []
         for pk in self.picks:
@@ -224,6 +226,8 @@ class CriteriaComparison:
                          "WLS 95 % width": float(pk.wls.mean()) if pk.wls is not None else np.nan,
                          "identified": int(np.sum(2 * pk.design < IDENTIFIED)),
                          "narrowed": int(np.sum(pk.exact < NARROWED)),
+                         "not identified": ", ".join(n for n, w in zip(self.names, pk.design, strict=True)
+                                                     if not 2 * w < IDENTIFIED) or "none",
                          "truth in exact bounds": pk.truth_inside})
         return pd.DataFrame(rows).set_index("trajectory")
 
