@@ -393,3 +393,32 @@ def test_coarse_shadow_is_close_on_both_axes_of_a_lopsided_polytope():
     assert len(coarse.vertices) < len(exact.vertices)
     assert np.all(P.contains(np.asarray(coarse.vertices)))
     assert np.exp(coarse.log_volume() - exact.log_volume()) > 0.99
+
+
+def test_a_one_point_set_keeps_its_gamma_star_after_the_bounds():
+    """A feasible set that is one point (the truth on a box corner, every error at +-e_max): the
+    bounds' frame shrinks to nothing, and the consistency LP solved there once said gamma* = 66.5
+    ("enlarge e_max 66-fold"). Reference: the truth's own residual ratio, 1 to rounding. gamma* must
+    not depend on whether the bounds ran first, and an empty verdict must say it is empty to rounding."""
+    rng = np.random.default_rng(7)
+    cases = 0
+    for _ in range(40):
+        W = rng.normal(size=(15, 3))
+        center, half = rng.normal(scale=3.0, size=3), rng.uniform(0.5, 3.0, size=3)
+        e = rng.uniform(0.05, 0.3, size=15)
+        theta = center + half * np.sign(rng.uniform(-1, 1, 3))
+        y = W @ theta + np.sign(rng.uniform(-1, 1, 15)) * e
+        box = (center - half, center + half)
+        at_truth = float(np.max(np.abs(y - W @ theta) / e))
+        first = Polytope(W, y, e, box=box).consistency().gamma
+        P = Polytope(W, y, e, box=box)
+        try:
+            b = P.bounds()
+        except InfeasibleDataError as exc:
+            cases += 1
+            assert "empty to solver accuracy" in str(exc)
+        else:
+            assert np.all(b.lo <= theta + 1e-9 * half) and np.all(theta - 1e-9 * half <= b.hi)
+        assert P.consistency().gamma == pytest.approx(first, abs=1e-12)
+        assert first <= at_truth + 1e-12
+    assert cases > 0          # the degenerate case this guards was met

@@ -239,6 +239,7 @@ class Polytope:
         self.box = _box(box, p)
         self.halfspaces = _halfspaces(halfspaces, p)
         self._frame: _Frame | None = None
+        self._first: _Frame | None = None
         self._engine: WorkingSetLP | None = None
         self._bounds: Bounds | None = None
         self._consistency: Consistency | None = None
@@ -354,9 +355,17 @@ class Polytope:
         return self._make_frame(origin, scale)
 
     def _get_frame(self) -> _Frame:
+        """The current frame (the first until :meth:`bounds` moves to P's bounding box)."""
         if self._frame is None:
-            self._frame = self._first_frame()
+            self._frame = self._frame0()
         return self._frame
+
+    def _frame0(self) -> _Frame:
+        """The first frame, computed once: the consistency LP and the rank run in it whatever frame
+        the bounds moved to (the bounding box of a P that is one point is no frame to solve in)."""
+        if self._first is None:
+            self._first = self._first_frame()
+        return self._first
 
     def _strip_block(self, F: _Frame) -> Block:
         """The strips in frame F: (r_k - e_k)/n_k <= (w_k * scale)^T z / n_k <= (r_k + e_k)/n_k,
@@ -479,7 +488,7 @@ class Polytope:
         return self._unbounded_error()
 
     def _unbounded_error(self) -> InputError:
-        rank = self._data_rank(self._get_frame())
+        rank = self._data_rank(self._frame0())
         return InputError(
             f"the feasible set is unbounded: W ({self.n_strips} x {self.dim}) has numerical rank {rank}"
             + (f" < {self.dim}" if rank < self.dim else "")
@@ -492,7 +501,7 @@ class Polytope:
                 "the prior (box and/or halfspaces) is empty on its own; check its bounds.")
         if not cons.empty:
             return InfeasibleDataError(
-                f"the feasible set is empty to solver accuracy: gamma* = {cons.gamma:.10g} is 1 within "
+                f"the feasible set is empty to solver accuracy: gamma* = 1 + {cons.gamma - 1:.2g} is 1 within "
                 f"rounding, so the data sit exactly at the edge of consistency ({len(cons.active)} rows "
                 f"active, first: {cons.active[:10].tolist()}). Enlarge e_max slightly or remove outliers.")
         return InfeasibleDataError(
@@ -514,7 +523,7 @@ class Polytope:
         (see :meth:`_level_screen`)."""
         if self._consistency is not None:
             return self._consistency
-        F = self._get_frame()
+        F = self._frame0()
         W, e = self.W, self.e_max
         N, p = W.shape
         blocks = [StripBlock(W, self.y, e, F.origin, F.scale, side=+1),      # w z + e t >= r
@@ -640,6 +649,11 @@ class Polytope:
         stats["working_rows"] = self._engine.n_rows
         stats["strips_reaching_box"] = int(reach.size) if reach is not None else self.n_strips
         X = F.to_theta(Z)
+        if self.box is not None:
+            # the LP keeps the box as its column bounds; only the way back from the frame (origin +
+            # scale z, through every stage's frame) can leave X outside it, by rounding: a P that is
+            # one point, at a box corner, was refused by the certificate below for 11 ulps of theta
+            X = np.clip(X, self.box[0], self.box[1])
         amin, amax = X[:p], X[p:]
         lo, hi = np.diag(amin).copy(), np.diag(amax).copy()
         self._found.extend(X)
