@@ -185,22 +185,41 @@ def _study_processes(jobs: int):
     return ctx
 
 
-def _run_studies(configs, out: Path, quiet: bool, jobs: int = 1, context=None) -> list[tuple[str, Path, str]]:
+def _comparison_job(cfg, progress=None):
+    """The excitation criteria of one study side by side (:func:`boundid.studies.excitation.compare_criteria`),
+    with one BLAS/OpenMP thread."""
+    from boundid.studies.campaign import one_thread
+    from boundid.studies.excitation import compare_criteria
+    from boundid.studies.registry import make_robot
+
+    with one_thread():
+        if progress is None:
+            return compare_criteria(cfg, make_robot(cfg.robot, cfg.robot_options))
+        with progress.stage(f"{cfg.name}: excitation criteria side by side"):
+            return compare_criteria(cfg, make_robot(cfg.robot, cfg.robot_options))
+
+
+def _run_studies(configs, out: Path, quiet: bool, jobs: int = 1, context=None,
+                 compare=()) -> list[tuple[str, Path, str]]:
     """Run each study and write its page to out/<name>/; (name, page, closing verdict line) of each,
     in the order of ``configs``, with one BLAS/OpenMP thread per study. ``jobs`` > 1: that many
     studies at once, each in a process of its own (``context``: from :func:`_study_processes`),
     started in order of decreasing experiment samples, with a line per finished study instead of
     progress bars; a study that fails (or Ctrl-C) cancels the studies not started yet, lets the
-    running ones finish and is raised."""
+    running ones finish and is raised. ``compare``: studies whose excitation criteria are also put
+    side by side (:func:`_comparison_job`, in the same processes), written to out/excitation/."""
     from boundid.report.output import check_out_dir
 
     check_out_dir(out, tuple(cfg.name for cfg in configs))
     if jobs <= 1:
         with _progress(quiet) as progress:
-            return [_study_job(cfg, out, progress) for cfg in configs]
+            written = [_study_job(cfg, out, progress) for cfg in configs]
+            comparisons = [_comparison_job(cfg, progress) for cfg in compare]
+        _write_excitation(comparisons, out, quiet)
+        return written
     context = context or _study_processes(jobs)
     try:
-        return _pool_run(configs, out, quiet, jobs, context)
+        return _pool_run(configs, out, quiet, jobs, context, compare)
     finally:
         if context.get_start_method() == "forkserver":
             _stop_forkserver()
@@ -218,26 +237,32 @@ def _stop_forkserver() -> None:
         stop()
 
 
-def _pool_run(configs, out: Path, quiet: bool, jobs: int, context) -> list[tuple[str, Path, str]]:
+def _pool_run(configs, out: Path, quiet: bool, jobs: int, context, compare=()) -> list[tuple[str, Path, str]]:
     """The ``jobs`` > 1 branch of :func:`_run_studies`."""
     import time
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    t0, done = time.perf_counter(), {}
+    t0, done, compared = time.perf_counter(), {}, {}
     with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
-        # the longest experiments first, so that the short studies fill in at the end
+        # the longest experiments first, then the comparisons, so that the short studies fill in at the end
         by_length = sorted(configs, key=lambda c: -c.experiment.duration_s / c.experiment.sample_period_s)
-        futures = {pool.submit(_study_job, cfg, out): cfg.name for cfg in by_length}
+        futures = {pool.submit(_study_job, cfg, out): ("study", cfg.name) for cfg in by_length[:jobs]}
+        futures |= {pool.submit(_comparison_job, cfg): ("comparison", cfg.name) for cfg in compare}
+        futures |= {pool.submit(_study_job, cfg, out): ("study", cfg.name) for cfg in by_length[jobs:]}
         if not quiet:
-            print(f"running {len(configs)} studies, {jobs} at a time")
+            print(f"running {len(configs)} studies" + (f" and {len(compare)} excitation comparisons" if compare
+                                                       else "") + f", {jobs} at a time")
         try:
             for fut in as_completed(futures):
-                done[futures[fut]] = fut.result()   # a study's error is raised here
+                kind, name = futures[fut]
+                (done if kind == "study" else compared)[name] = fut.result()   # an error is raised here
                 if not quiet:
-                    print(f"  {futures[fut]}: written ({time.perf_counter() - t0:.0f} s)")
+                    print(f"  {name}{'' if kind == 'study' else ' (excitation criteria)'}: done "
+                          f"({time.perf_counter() - t0:.0f} s)")
         except BaseException:
             pool.shutdown(wait=True, cancel_futures=True)
             raise
+    _write_excitation([compared[cfg.name] for cfg in compare], out, quiet)
     return [done[cfg.name] for cfg in configs]
 
 
@@ -281,33 +306,26 @@ def cmd_report(args) -> int:
     jobs = _jobs(args.jobs, len(studies))
     context = _study_processes(jobs)
     configs = _load_studies(studies)
-    written = _run_studies(configs, out, args.quiet, jobs, context)
-    compared = [cfg for cfg in configs if cfg.experiment.design.compare]
-    if compared:
-        page = _write_excitation(compared, out, args.quiet)
-        if not args.quiet:
-            print(f"excitation design: {page}")
+    written = _run_studies(configs, out, args.quiet, jobs, context,
+                           compare=[cfg for cfg in configs if cfg.experiment.design.compare])
     _refresh_index(out, args.quiet)
     for _, _, verdict in written:
         print(verdict)
     return _gate(written, args.allow_failures)
 
 
-def _write_excitation(configs, out: Path, quiet: bool) -> Path:
-    """The three excitation criteria side by side for ``configs`` (:mod:`boundid.studies.excitation`),
-    one BLAS thread, written to out/excitation/index.html."""
+def _write_excitation(comparisons, out: Path, quiet: bool) -> Path | None:
+    """Write the excitation criteria side by side (:func:`_comparison_job` of each study) to
+    out/excitation/index.html; None when there are none."""
     from boundid.report.excitation_page import write_excitation_page
     from boundid.report.html import EXCITATION_DIR
-    from boundid.studies.campaign import one_thread
-    from boundid.studies.excitation import compare_criteria
-    from boundid.studies.registry import make_robot
 
-    comparisons = []
-    with one_thread(), _progress(quiet) as progress:
-        for cfg in configs:
-            with progress.stage(f"{cfg.name}: excitation criteria side by side"):
-                comparisons.append(compare_criteria(cfg, make_robot(cfg.robot, cfg.robot_options)))
-    return write_excitation_page(comparisons, out / EXCITATION_DIR)
+    if not comparisons:
+        return None
+    page = write_excitation_page(comparisons, out / EXCITATION_DIR)
+    if not quiet:
+        print(f"excitation design: {page}")
+    return page
 
 
 def cmd_excitation(args) -> int:
@@ -318,7 +336,9 @@ def cmd_excitation(args) -> int:
         configs = [replace(cfg, experiment=replace(cfg.experiment, design=replace(cfg.experiment.design,
                                                                                     candidates=args.candidates)))
                    for cfg in configs]
-    page = _write_excitation(configs, Path(args.out), args.quiet)
+    with _progress(args.quiet) as progress:
+        comparisons = [_comparison_job(cfg, progress) for cfg in configs]
+    page = _write_excitation(comparisons, Path(args.out), quiet=True)
     _refresh_index(Path(args.out))
     print(page)
     return 0

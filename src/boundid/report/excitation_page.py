@@ -141,7 +141,7 @@ def excitation_page(comparisons: list[CriteriaComparison]) -> Page:
         page.section(f"{cmp.study}: every parameter", folded=f"the {len(cmp.names)} parameters' widths over their "
                                                              "prior widths, for each pick")
         page.table(per, "Widths over the prior widths per parameter: design (guaranteed), exact (LP bounds of the "
-                        "recording), OBE and WLS (95 %), one column per pick.", name=f"{cmp.study}_widths")
+                        "recording), OBE and WLS (95 %), one column per pick.", name=f"{cmp.study}_parameters")
     return page
 
 

@@ -1,0 +1,50 @@
+"""`boundid excitation` and `boundid report`'s excitation page: the page is written and linked from the
+site index, its numbers are the comparison's own; a study the search cannot serve is refused in one
+line, exit 2. References: the comparison computed here in-process (boundid.studies.excitation)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pandas as pd
+
+from boundid.cli import main
+from boundid.studies.config import load_study
+
+STUDIES = Path(__file__).resolve().parents[1] / "studies"
+
+
+def _short_dd(tmp_path: Path) -> Path:
+    """The direct-drive study, 3 s, 2 candidates."""
+    text = (STUDIES / "direct_drive_rls.toml").read_text()
+    text = text.replace("duration_s = 10.0", "duration_s = 3.0")
+    text = re.sub(r"(?m)^candidates = \d+", "candidates = 2", text)
+    path = tmp_path / "dd.toml"
+    path.write_text(text)
+    return path
+
+
+def test_the_excitation_command_writes_the_page_and_the_index_links_it(tmp_path, capsys):
+    study = _short_dd(tmp_path)
+    assert load_study(study).experiment.design.compare
+    assert main(["excitation", str(study), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    page = tmp_path / "out" / "excitation" / "index.html"
+    assert capsys.readouterr().out.strip().endswith(str(page))
+    html = page.read_text()
+    assert "Excitation design: guaranteed against classical criteria" in html
+    summary = pd.read_csv(page.parent / "tables" / "direct-drive-rls-summary.csv", index_col=0)
+    assert list(summary.index) == ["first draw", "guaranteed", "cond", "logdet"]
+    # the guaranteed pick has the smallest search score among the candidates drawn
+    assert (summary["design width (search)"] >= summary.loc["guaranteed", "design width (search)"]).all()
+    assert summary["truth in exact bounds"].all()
+    index = (tmp_path / "out" / "index.html").read_text()
+    assert 'href="excitation/index.html"' in index and "Excitation design" in index
+
+
+def test_a_measured_study_is_refused_in_one_line(tmp_path, capsys):
+    study = STUDIES / "examples" / "measured_direct_drive.toml"
+    code = main(["excitation", str(study), "--out", str(tmp_path), "--quiet"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert err[0].startswith("boundid: error: ") and "recording" in err[0] and "excitation" in err[0]
