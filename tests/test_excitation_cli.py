@@ -48,3 +48,18 @@ def test_a_measured_study_is_refused_in_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1
     assert err[0].startswith("boundid: error: ") and "recording" in err[0] and "excitation" in err[0]
+
+
+def test_pooled_design_widths_lie_below_every_candidates(tmp_path):
+    """The pooled design set (every candidate's rows) lies inside each candidate's, so its widths are
+    at most each candidate's (reference: the candidates' own design widths from the search)."""
+    from boundid.studies.excitation import compare_criteria
+    from boundid.studies.registry import make_robot
+
+    cfg = load_study(_short_dd(tmp_path))
+    cmp = compare_criteria(cfg, make_robot(cfg.robot, cfg.robot_options))
+    assert cmp.pooled is not None and cmp.pooled.shape == (len(cmp.names),)
+    assert (cmp.pooled <= cmp.design.search.widths.min(axis=0) + 1e-9).all()
+    # a parameter the pooled rows leave at the prior width, no single candidate narrows
+    for name in cmp.never_narrowed():
+        assert (cmp.design.search.widths[:, cmp.names.index(name)] >= 0.99 - 1e-9).all()

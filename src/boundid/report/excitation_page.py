@@ -93,10 +93,15 @@ def _study_findings(cmp: CriteriaComparison) -> list[str]:
            f"identifying {sm.loc['guaranteed', 'identified']} of {len(cmp.names)} parameters at {cmp.bound}); on the "
            f"recordings the smallest mean exact width is {best_exact}'s ({_pct(sm.loc[best_exact, 'exact width'])})."]
     never = cmp.never_narrowed()
+    k = len(cmp.design.search.candidates)
     if never:
-        out.append(f"{cmp.study}: none of the {len(cmp.design.search.candidates)} candidates tried narrows "
-                   f"{', '.join(never)} below {_pct(NARROWED)} of the prior at {cmp.bound} (design widths); "
-                   "bounding them needs another excitation family, a smaller bound or prior knowledge.")
+        out.append(f"{cmp.study}: even the {k} candidates' rows together leave {', '.join(never)} at "
+                   f"{_pct(NARROWED)} of the prior width or more at {cmp.bound} (design widths), so no candidate "
+                   "tried narrows them: bounding them needs another excitation family, a smaller bound or prior "
+                   "knowledge.")
+    elif cmp.pooled is not None:
+        out.append(f"{cmp.study}: the {k} candidates' rows together narrow every parameter (largest pooled "
+                   f"design width {_pct(float(cmp.pooled.max()))} of the prior).")
     return out
 
 
@@ -138,9 +143,12 @@ def excitation_page(comparisons: list[CriteriaComparison]) -> Page:
                     name=f"{cmp.study}_widths")
         per = pd.concat([cmp.widths(kind).add_prefix(f"{kind} · ") for kind in ("design", "exact", "obe", "wls")],
                         axis=1)
+        if cmp.pooled is not None:
+            per.insert(0, "design · all candidates' rows", cmp.pooled)
         page.section(f"{cmp.study}: every parameter", folded=f"the {len(cmp.names)} parameters' widths over their "
                                                              "prior widths, for each pick")
-        page.table(per, "Widths over the prior widths per parameter: design (guaranteed), exact (LP bounds of the "
+        page.table(per, "Widths over the prior widths per parameter: design (guaranteed; first, of all the "
+                        "candidates' rows together, at the search's rate), exact (LP bounds of the "
                         "recording), OBE and WLS (95 %), one column per pick.", name=f"{cmp.study}_parameters")
     return page
 

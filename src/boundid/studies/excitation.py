@@ -211,6 +211,10 @@ class CriteriaComparison:
     obe_label: str | None
     wls_label: str | None
     time_s: float
+    #: (p,) design widths over the prior widths of all the candidates' search rows stacked: inside each
+    #: candidate's design set (more rows), so a parameter it leaves at the prior width no candidate
+    #: narrows; for the rest-to-rest Fourier families also a real experiment (the candidates in turn)
+    pooled: np.ndarray | None = None
 
     def summary(self) -> pd.DataFrame:
         """One row per pick: its criteria's values, the mean widths, how many parameters it identifies
@@ -237,7 +241,11 @@ class CriteriaComparison:
                             index=pd.Index(self.names, name="parameter"))
 
     def never_narrowed(self) -> list[str]:
-        """Parameters no candidate of the search narrows below the prior (design width 1 for all)."""
+        """Parameters that even all the candidates' rows together leave at the prior width
+        (pooled design width >= NARROWED); then no single candidate narrows them either (fewer rows, a
+        larger design set). Without ``pooled``: those that no single candidate narrows."""
+        if self.pooled is not None:
+            return [n for n, w in zip(self.names, self.pooled, strict=True) if w >= NARROWED]
         w = self.design.search.widths
         return [n for n, j in zip(self.names, range(w.shape[1]), strict=True) if np.all(w[:, j] >= NARROWED)]
 
@@ -292,7 +300,9 @@ def compare_criteria(cfg: StudyConfig, model: RobotModel, design: ExcitationDesi
                   rel["wls"], bool(np.all((b.lo <= theta) & (theta <= b.hi))), failures)
         done[k] = pk
         picks.append(pk)
+    rows = [design_rows(model, fam, c, design.settings.rate_hz, e_joint) for c in design.search.candidates]
+    pooled = design_widths(np.vstack([r[1] for r in rows]), np.concatenate([r[3] for r in rows]), half)
     e_text = ", ".join(f"{v:g}" for v in np.unique(e_joint))
     return CriteriaComparison(cfg.name, cfg.title, design, picks, tuple(model.param_names), rate,
                               f"{e_text} N m", obe_ec.label if obe_ec else None, wls_ec.label if wls_ec else None,
-                              time.perf_counter() - t_start)
+                              time.perf_counter() - t_start, pooled)
