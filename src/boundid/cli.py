@@ -237,6 +237,19 @@ def _stop_forkserver() -> None:
         stop()
 
 
+def _last_run_s(folder: Path) -> float:
+    """Seconds the study's last run took, from its page's time table (0 when there is none)."""
+    import csv
+
+    try:
+        with open(folder / "tables" / "times.csv", newline="", encoding="utf-8") as f:
+            rows = list(csv.DictReader(f))
+        # the exact optima's parts (marked "↳ ", boundid.report.study_page.PART_MARK) are in their total
+        return sum(float(r["seconds"]) for r in rows if not r["stage"].startswith("↳"))
+    except (OSError, KeyError, ValueError):
+        return 0.0
+
+
 def _pool_run(configs, out: Path, quiet: bool, jobs: int, context, compare=()) -> list[tuple[str, Path, str]]:
     """The ``jobs`` > 1 branch of :func:`_run_studies`."""
     import time
@@ -244,8 +257,10 @@ def _pool_run(configs, out: Path, quiet: bool, jobs: int, context, compare=()) -
 
     t0, done, compared = time.perf_counter(), {}, {}
     with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
-        # the longest experiments first, then the comparisons, so that the short studies fill in at the end
-        by_length = sorted(configs, key=lambda c: -c.experiment.duration_s / c.experiment.sample_period_s)
+        # the longest studies first (by their last run's time, else their samples), then the comparisons,
+        # so that the short studies fill in at the end
+        by_length = sorted(configs, key=lambda c: (-_last_run_s(out / c.name),
+                                                   -c.experiment.duration_s / c.experiment.sample_period_s))
         futures = {pool.submit(_study_job, cfg, out): ("study", cfg.name) for cfg in by_length[:jobs]}
         futures |= {pool.submit(_comparison_job, cfg): ("comparison", cfg.name) for cfg in compare}
         futures |= {pool.submit(_study_job, cfg, out): ("study", cfg.name) for cfg in by_length[jobs:]}

@@ -85,13 +85,13 @@ def _study_findings(cmp: CriteriaComparison) -> list[str]:
     """What the comparison of one study found, in sentences computed from it."""
     sm = cmp.summary()
     best_exact = sm["exact width"].idxmin()
+    widths = ", ".join(f"{label} {_pct(sm.loc[label, 'design width'])}" for label in sm.index)
     same = [c for c in ("cond", "logdet") if sm.loc[c, "candidate"] == sm.loc["guaranteed", "candidate"]]
-    picks = ("cond(W) and ln det pick the same trajectory as the guaranteed criterion" if len(same) == 2 else
-             "; ".join(f"{c}'s pick has {sm.loc[c, 'design width'] / sm.loc['guaranteed', 'design width']:.3g} x its "
-                       "mean design width" for c in ("cond", "logdet") if c not in same))
-    out = [f"{cmp.study}: {picks} (the guaranteed pick: {_pct(sm.loc['guaranteed', 'design width'])} of the prior, "
-           f"identifying {sm.loc['guaranteed', 'identified']} of {len(cmp.names)} parameters at {cmp.bound}); on the "
-           f"recordings the smallest mean exact width is {best_exact}'s ({_pct(sm.loc[best_exact, 'exact width'])})."]
+    agree = (f" ({' and '.join(same)} picked the same trajectory as the guaranteed criterion)" if same else "")
+    g = sm.loc["guaranteed"]
+    out = [f"{cmp.study}: mean design width of each pick at {cmp.bound}, over the prior width: {widths}{agree}; "
+           f"the guaranteed pick identifies {g['identified']} of {len(cmp.names)} parameters; on the recordings the "
+           f"smallest mean exact width is {best_exact}'s ({_pct(sm.loc[best_exact, 'exact width'])})."]
     never = cmp.never_narrowed()
     k = len(cmp.design.search.candidates)
     if never:
