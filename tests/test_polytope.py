@@ -422,3 +422,19 @@ def test_a_one_point_set_keeps_its_gamma_star_after_the_bounds():
         assert P.consistency().gamma == pytest.approx(first, abs=1e-12)
         assert first <= at_truth + 1e-12
     assert cases > 0          # the degenerate case this guards was met
+
+
+def test_a_centred_polytope_takes_half_the_lps_and_the_same_bounds():
+    """P = -P (y = 0, a box symmetric about 0): bounds() solves only the minimisers and mirrors them.
+    Reference: the same polytope shifted off the origin (no symmetry to use), shifted back."""
+    rng = np.random.default_rng(3)
+    W = rng.normal(size=(400, 6)) * rng.uniform(0.1, 10.0, 6)
+    half = rng.uniform(0.5, 5.0, 6)
+    e = rng.uniform(0.5, 1.5, 400)
+    b = Polytope(W, np.zeros(400), e, box=(-half, half)).bounds()
+    shift = 0.3 * half * rng.uniform(-1, 1, 6)
+    b2 = Polytope(W, W @ shift, e, box=(-half + shift, half + shift)).bounds()
+    assert np.allclose(b.lo, b2.lo - shift, rtol=0, atol=1e-9 * half.max())
+    assert np.allclose(b.hi, b2.hi - shift, rtol=0, atol=1e-9 * half.max())
+    assert np.array_equal(b.lo, -b.hi) and np.array_equal(b.argmin, -b.argmax)
+    assert b.info["lp_solves"] <= 0.6 * b2.info["lp_solves"]

@@ -606,6 +606,16 @@ class Polytope:
         p = self.dim
         costs = np.vstack([np.eye(p), -np.eye(p)])
         stats = {"lp_solves": 0, "passes": 0, "frames": 0}
+        # P = -P (y = 0, a box symmetric about 0, no halfspaces: e.g. an excitation's design set): in a
+        # frame centred at 0 the maximiser of each coordinate is minus its minimiser, so p LPs do
+        centred = self.halfspaces is None and not np.any(self.y) and \
+            (self.box is None or np.array_equal(self.box[0], -self.box[1]))
+
+        def axes_optima() -> np.ndarray:
+            if centred and not np.any(self._frame.origin if self._frame is not None else 0.0):
+                Z = self._minimize_many(costs[:p])
+                return np.vstack([Z, -Z])
+            return self._minimize_many(costs)
 
         def count():
             stats["lp_solves"] += self._engine.n_solves
@@ -622,7 +632,7 @@ class Polytope:
             if stage is not None and reach is not None:
                 rows = np.intersect1d(rows, reach, assume_unique=True)
             self._theta_engine().active[0] = rows
-            Z = self._minimize_many(costs)
+            Z = axes_optima()
             F = self._frame
             zlo, zhi = np.diag(Z[:p]), np.diag(Z[p:])
             hw, cz = 0.5 * (zhi - zlo), 0.5 * (zhi + zlo)
@@ -634,7 +644,7 @@ class Polytope:
             count()
             if stage is None and off and not self._certified(F.to_theta(Z), F.scale * hw, rows):
                 self._set_frame(box_frame, reach)      # re-solve where P spans [-1, 1]
-                Z = self._minimize_many(costs)
+                Z = axes_optima()
                 F = self._frame
                 resolved = True
                 count()
