@@ -61,5 +61,38 @@ def test_pooled_design_widths_lie_below_every_candidates(tmp_path):
     assert cmp.pooled is not None and cmp.pooled.shape == (len(cmp.names),)
     assert (cmp.pooled <= cmp.design.search.widths.min(axis=0) + 1e-9).all()
     # a parameter the pooled rows leave at the prior width, no single candidate narrows
-    for name in cmp.never_narrowed():
+    for name in cmp.not_guaranteed():
         assert (cmp.design.search.widths[:, cmp.names.index(name)] >= 0.99 - 1e-9).all()
+
+
+def _with(tmp_path: Path, source: Path, old: str, new: str) -> Path:
+    text = source.read_text()
+    assert old in text, old
+    path = tmp_path / f"edited_{len(list(tmp_path.iterdir()))}.toml"
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+def test_design_settings_the_experiment_cannot_give_are_refused_in_one_line(tmp_path, capsys):
+    """A design rate above the sample rate, a rate that does not divide the open-loop experiment's,
+    a search over the resource budget, the design keys in a study that reads a recording: exit 2,
+    one line naming the key and the fix."""
+    dd = _short_dd(tmp_path)
+    measured = STUDIES / "examples" / "measured_direct_drive.toml"
+    cases = [
+        (_with(tmp_path, dd, "rate_hz = 10.0", "rate_hz = 1000.0"), r"rate_hz = 1000 Hz is above .* 400 Hz"),
+        (_with(tmp_path, dd, "rate_hz = 10.0", "rate_hz = 7.0"), r"does not divide .* 400 Hz"),
+        (_with(tmp_path, dd, "candidates = 2", "candidates = 10000\nrate_hz = 400.0").read_text()
+         .replace("rate_hz = 10.0\n", ""), r"experiment\.design .*budget|BOUNDID_MAX"),
+        (_with(tmp_path, measured, 'source = "measured"', 'source = "measured"\nexcitation = "guaranteed"'),
+         r"experiment\.excitation: designs the excitation of a simulated experiment"),
+    ]
+    for study, match in cases:
+        if isinstance(study, str):
+            path = tmp_path / "budget.toml"
+            path.write_text(study)
+            study = path
+        assert main(["run", str(study), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("boundid: error: "), err
+        assert re.search(match, err[0]), err[0]

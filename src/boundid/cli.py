@@ -63,13 +63,13 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"boundid: error: {message} (see {self.prog} --help)\n")
 
 
-def _integer(lo: int, what: str):
+def _integer(lo: int, what: str, hi: int | None = None):
     def parse(text: str) -> int:
         try:
             value = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"must be an integer {what}, got {text!r}") from None
-        if value < lo:
+        if value < lo or (hi is not None and value > hi):
             raise argparse.ArgumentTypeError(f"must be an integer {what}, got {value}")
         return value
     return parse
@@ -346,11 +346,17 @@ def _write_excitation(comparisons, out: Path, quiet: bool) -> Path | None:
 def cmd_excitation(args) -> int:
     from dataclasses import replace
 
+    from boundid.studies.config import check_design
+    from boundid.studies.registry import make_robot
+
     configs = _load_studies(args.study, args.seed)
     if args.candidates is not None:
         configs = [replace(cfg, experiment=replace(cfg.experiment, design=replace(cfg.experiment.design,
                                                                                     candidates=args.candidates)))
                    for cfg in configs]
+    for cfg in configs:
+        if cfg.experiment.source == "simulate":          # a recording is refused by the search itself
+            check_design(cfg.experiment, make_robot(cfg.robot, cfg.robot_options), cfg.file)
     with _progress(args.quiet) as progress:
         comparisons = [_comparison_job(cfg, progress) for cfg in configs]
     page = _write_excitation(comparisons, Path(args.out), quiet=True)
@@ -530,8 +536,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "<out>/excitation/index.html. `boundid report` does this for the studies whose "
                                    "[experiment.design] sets compare = true.")
     p.add_argument("study", nargs="+", help="study file(s) of simulated experiments, e.g. studies/h4_obe.toml")
-    p.add_argument("--candidates", type=_integer(1, ">= 1"), help="candidates per study (default: each study's "
-                   "[experiment.design] candidates)")
+    p.add_argument("--candidates", type=_integer(1, "in [1, 10000]", 10_000),
+                   help="candidates per study (default: each study's [experiment.design] candidates)")
     p.add_argument("--seed", type=seed, help="override the studies' seed (an integer >= 0)")
     p.add_argument("--out", default=str(DEFAULT_REPORTS), help="reports folder (default: reports)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")

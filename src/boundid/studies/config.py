@@ -406,6 +406,10 @@ def _experiment(sec: Section, base: Path) -> ExperimentConfig:
                                 tau_file=None if tau_file is None else (base / tau_file).resolve(),
                                 sample_period_s=period, angle_unit=angle_unit, time_unit=time_unit,
                                 transmission=transmission, holdout_fraction=holdout)
+        for key in ("excitation", "design"):
+            if key in sec.data:          # (not sec.has: the key documentation's probe would read it as a key here)
+                raise sec.error(key, "designs the excitation of a simulated experiment; this study reads a recording "
+                                     "(experiment.measured): remove it, or simulate (source = \"simulate\").")
         sec.check_unknown()
         return ExperimentConfig(source="measured", measured=measured)
     noise = sec.section("noise")
@@ -438,6 +442,23 @@ def _design(sec: Section) -> ExcitationSearchConfig:
                                  compare=sec.bool("compare", False))
     sec.check_unknown()
     return out
+
+
+def check_design(exp: ExperimentConfig, model, path: Path) -> None:
+    """Refuse a design rate the experiment cannot give (above its sample rate, or not a whole divisor
+    of it for the open-loop experiment, whose motion is simulated at its samples) and a search over
+    the resource budget (every candidate's rows)."""
+    rate, fs = exp.design.rate_hz, 1.0 / exp.sample_period_s
+    if rate > fs * (1 + 1e-9):
+        raise StudyError(f"{path}: experiment.design.rate_hz = {rate:g} Hz is above the experiment's sample rate "
+                         f"{fs:g} Hz; choose at most that (10 Hz scores a trajectory well).")
+    step = fs / rate
+    if exp.control == "open_loop" and abs(step - round(step)) > 1e-9 * step:
+        raise StudyError(f"{path}: experiment.design.rate_hz = {rate:g} Hz does not divide the open-loop "
+                         f"experiment's sample rate {fs:g} Hz (its motion is simulated at those samples); choose "
+                         f"{fs:g} / k Hz, e.g. {fs / max(1, round(step)):g} Hz.")
+    samples = round(exp.duration_s * rate) * exp.design.candidates
+    sizing.check_budget(samples, model.n_joints, model.p, 1, f"{path}: experiment.design (rows of every candidate)")
 
 
 def _check_size(cfg: StudyConfig, model) -> None:
@@ -586,6 +607,8 @@ def load_study(path: str | Path) -> StudyConfig:
         raise StudyError(f"{path}: experiment.excitation = {experiment.excitation!r} (or experiment.design.compare) "
                          "scores trajectories at the bound before any data exist: give [exact] e_max as a number "
                          "(or one per joint), not e_max_rule.")
+    if designs:
+        check_design(experiment, model, path)
     ex.check_unknown()
     cfg = StudyConfig(
         name=name,

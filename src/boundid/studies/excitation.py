@@ -44,11 +44,10 @@ from boundid.studies.h4_experiment import h4_config
 #: the design's random streams: np.random.default_rng([seed, stream]) (the experiment's own rng is
 #: default_rng(seed), untouched by the design)
 DESIGN_STREAM, ERROR_STREAM = 32, 33
-#: a parameter is *identified* by a trajectory when twice its design width, the widest exact interval
-#: any data within the bound can leave (:mod:`boundid.experiments.excitation_design`), is below this
-#: fraction of its prior width
-IDENTIFIED = 1.0
-#: ... and *narrowed* on a recording when its exact interval is below this fraction of its prior width
+#: a parameter counts as narrowed when its width is below this fraction of its prior width: *narrowed
+#: for certain* by a trajectory when twice its design width is (then every recording of the design
+#: regression whose errors are within the bound, with the truth in the prior box, narrows it:
+#: :mod:`boundid.experiments.excitation_design`), *narrowed* on a recording when its exact width is
 NARROWED = 0.99
 #: the comparison's recordings: errors uniform within this fraction of the bound (zero errors give the
 #: design set itself; errors that fill the bound cut the set far below what real data, whose bound is
@@ -81,8 +80,8 @@ def family(cfg: StudyConfig, model: RobotModel) -> Family:
     """The excitation family of the study's simulated experiment."""
     exp = cfg.experiment
     if exp.source != "simulate":
-        raise StudyError(f"{cfg.file}: an excitation is designed for a simulated experiment; this study reads a "
-                         "recording (experiment.measured): remove experiment.excitation.")
+        raise StudyError(f"{cfg.file}: an excitation is designed, and the criteria compared, for a simulated "
+                         "experiment (source = \"simulate\"); this study reads a recording (experiment.measured).")
     if exp.control == "open_loop":
         from boundid.experiments.simulation import simulate_open_loop
 
@@ -217,8 +216,8 @@ class CriteriaComparison:
     pooled: np.ndarray | None = None
 
     def summary(self) -> pd.DataFrame:
-        """One row per pick: its criteria's values, the mean widths, how many parameters it identifies
-        (and narrows on its recording) and those it does not identify."""
+        """One row per pick: its criteria's values, the mean widths, how many parameters it narrows for
+        certain (and on its recording) and those it does not narrow for certain."""
         sc = self.design.search.scores
         rows = []
         for pk in self.picks:
@@ -228,10 +227,10 @@ class CriteriaComparison:
                          "design width": float(pk.design.mean()), "exact width": float(pk.exact.mean()),
                          "OBE width": float(pk.obe.mean()) if pk.obe is not None else np.nan,
                          "WLS 95 % width": float(pk.wls.mean()) if pk.wls is not None else np.nan,
-                         "identified": int(np.sum(2 * pk.design < IDENTIFIED)),
-                         "narrowed": int(np.sum(pk.exact < NARROWED)),
-                         "not identified": ", ".join(n for n, w in zip(self.names, pk.design, strict=True)
-                                                     if not 2 * w < IDENTIFIED) or "none",
+                         "narrowed for certain": int(np.sum(2 * pk.design < NARROWED)),
+                         "narrowed on the recording": int(np.sum(pk.exact < NARROWED)),
+                         "not narrowed for certain": ", ".join(n for n, w in zip(self.names, pk.design, strict=True)
+                                                               if not 2 * w < NARROWED) or "none",
                          "truth in exact bounds": pk.truth_inside})
         return pd.DataFrame(rows).set_index("trajectory")
 
@@ -240,13 +239,14 @@ class CriteriaComparison:
         return pd.DataFrame({pk.label: getattr(pk, kind) for pk in self.picks if getattr(pk, kind) is not None},
                             index=pd.Index(self.names, name="parameter"))
 
-    def never_narrowed(self) -> list[str]:
-        """Parameters that even all the candidates' rows together leave at the prior width
-        (pooled design width >= NARROWED); then no single candidate narrows them either (fewer rows, a
-        larger design set). Without ``pooled``: those that no single candidate narrows."""
-        if self.pooled is not None:
-            return [n for n, w in zip(self.names, self.pooled, strict=True) if w >= NARROWED]
-        w = self.design.search.widths
+    def not_guaranteed(self) -> list[str]:
+        """Parameters that all the candidates' search rows together (at rate_hz) leave at NARROWED of
+        the prior width or more in their design set: data within the bound exist (zero errors, the
+        truth at the prior's centre) whose exact interval is that wide, so no candidate tried
+        guarantees to narrow them (each one's rows are among those rows: a larger design set). A
+        recording with other errors may still narrow them. Without ``pooled``: those that no single
+        candidate's design set narrows."""
+        w = self.design.search.widths if self.pooled is None else self.pooled[None, :]
         return [n for n, j in zip(self.names, range(w.shape[1]), strict=True) if np.all(w[:, j] >= NARROWED)]
 
 
