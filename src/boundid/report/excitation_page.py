@@ -126,7 +126,7 @@ def excitation_page(comparisons: list[CriteriaComparison]) -> Page:
                 "guaranteed one (the exact design set's widths at the study's bound) and the classical cond(W) and "
                 "ln det W^T W. Each criterion's best is then recorded at the study's row rate and bounded exactly, "
                 "by the study's OBE and by WLS, so the page shows which parameters each criterion's trajectory "
-                "identifies at the bound.",
+                "narrows for certain at the bound, and which none of the candidates can.",
                 setup={"studies": ", ".join(c.study for c in comparisons),
                        "recordings": f"errors uniform within {ERROR_FRACTION:g} x the bound, the same draw for every "
                                      "pick (seeded by the study)",
@@ -154,8 +154,9 @@ def excitation_page(comparisons: list[CriteriaComparison]) -> Page:
                        "not narrow for certain.",
                    name=f"{cmp.study}_summary")
         page.figure(_width_figure(cmp), "Per parameter, each pick's width over the prior width: the design width "
-                                        "(top; twice it bounds every exact interval the trajectory can leave) and the "
-                                        "exact width on the recording (bottom); dotted: the prior width.",
+                                        "(top; twice it bounds every exact interval of the pick's design rows "
+                                        "within the bound) and the exact width on the recording (bottom); dotted: "
+                                        "the prior width.",
                     name=f"{cmp.study}_widths")
         per = pd.concat([cmp.widths(kind).add_prefix(f"{kind} · ") for kind in ("design", "exact", "obe", "wls")],
                         axis=1)
