@@ -134,7 +134,8 @@ def excitation_page(comparisons: list[CriteriaComparison]) -> Page:
                                      "not the study's own excitation",
                        "narrowed for certain": f"twice the design width below {NARROWED:g} x the prior width: "
                                                "narrowed by every recording of the design rows within the bound",
-                       "narrowed on the recording": f"exact width below {NARROWED:g} x the prior width"})
+                       "narrowed on the recording": f"exact width below {NARROWED:g} x the prior width"},
+                glossary=True)
     page.findings(findings)
     page.section("The criteria", CRITERIA_TEXT)
     for cmp in comparisons:

@@ -96,6 +96,15 @@ GLOSSARY: tuple[Term, ...] = (
          "every set's widths by these.",
          ("LP bounds", "exact LP bounds", "LP exact", "LP box", "exact LP interval", "LP interval",
           "exact LP width", "LP width"), "refs §LP"),
+    Term("design set (excitation design)", "design-set",
+         "What a trajectory can guarantee before any data: D = {d : |W d| <= e_max, |d_j| <= r_j}, W the "
+         "inverse-dynamic rows of its noise-free motion, r the prior half-widths. It is the exact polytope about the "
+         "truth when the errors are zero and the truth is at the prior's centre; for any errors within the bound "
+         "(and the truth in the prior box) the exact polytope of those rows lies within the truth + 2 D. Its LP "
+         "widths over the prior widths (design widths) score the trajectory; twice a design width below 0.99 of the "
+         "prior width narrows that parameter for certain.",
+         ("design set", "design sets", "design width", "design widths", "narrowed for certain",
+          "narrows for certain"), "refs §LP"),
     Term("raw set", "raw-set",
          "A recursive estimator's set as the estimator returns it, not intersected with the prior box; its intervals "
          "may reach outside the box (the OBE forgets the box after its first ellipsoid).",
