@@ -134,9 +134,9 @@ def test_study_page_header_names_its_data_tables_and_figures(site):
 def test_empty_site_says_which_command_writes_each_part(tmp_path):
     index = write_site_index(tmp_path)
     text = index.read_text()
-    for command in ("make report", "make campaign", "make teach", "make bench"):
+    for command in ("make report", "make campaign", "make teach", "boundid excitation", "make bench"):
         assert command in text
-    assert _links(index).hrefs == ["#papers", "#studies", "#campaigns", "#teaching", "#benchmarks"]
+    assert _links(index).hrefs == ["#papers", "#studies", "#campaigns", "#teaching", "#excitation", "#benchmarks"]
 
 
 def test_folded_section_and_findings_box(tmp_path):
