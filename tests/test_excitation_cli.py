@@ -96,3 +96,30 @@ def test_design_settings_the_experiment_cannot_give_are_refused_in_one_line(tmp_
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith("boundid: error: "), err
         assert re.search(match, err[0]), err[0]
+
+
+def test_a_campaign_replicate_runs_on_the_designed_excitation(tmp_path, monkeypatch):
+    """A study with excitation = "guaranteed": each campaign replicate simulates the search's pick
+    (reference: the design computed here), never the experiment's own torques."""
+    from boundid.studies import campaign
+    from boundid.studies.excitation import design_excitation
+    from boundid.studies.registry import make_robot
+    from boundid.studies.scenarios import load_campaign
+
+    study = _with(tmp_path, _short_dd(tmp_path), 'source = "simulate"',
+                  'source = "simulate"\nexcitation = "guaranteed"')
+    cfg = load_study(study)
+    seen = []
+
+    def capture(ccfg, model, rng, excitation=None):
+        seen.append(excitation)
+        raise RuntimeError("captured")
+
+    monkeypatch.setattr(campaign, "acquire", capture)
+    scenario = load_campaign(cfg).scenarios[0]
+    try:
+        campaign.replicate_rows(cfg, scenario, 0)
+    except RuntimeError:
+        pass
+    want = design_excitation(cfg, make_robot(cfg.robot, cfg.robot_options)).excitation
+    assert seen == [want]

@@ -57,6 +57,7 @@ from threadpoolctl import ThreadpoolController
 from boundid.errors import RUN_FAILURES, InputError, StudyError
 from boundid.studies.config import StudyConfig, prior_box
 from boundid.studies.data import acquire
+from boundid.studies.excitation import design_excitation
 from boundid.studies.progress import QUIET, Progress
 from boundid.studies.registry import make_robot
 from boundid.studies.runner import build_regressions, exact_optima, run_estimator, tidy_table
@@ -130,7 +131,10 @@ def replicate_rows(cfg: StudyConfig, scenario: Scenario, replicate: int) -> pd.D
     ccfg = campaign_config(cfg, scenario)
     rng = np.random.default_rng(replicate_seed(cfg.seed, scenario.name, replicate))
     model = make_robot(ccfg.robot, ccfg.robot_options)
-    data = acquire(ccfg, model, rng)
+    # a designed excitation: the same search in every replicate (seeded by the study's seed alone), so the
+    # same pick, as the study's own run
+    design = design_excitation(ccfg, model) if ccfg.experiment.excitation != "default" else None
+    data = acquire(ccfg, model, rng, design.excitation if design is not None else None)
     regressions = build_regressions(model, data.recording, ccfg.preprocessing, ccfg.regressions)
     estimates, extra, failures = {}, {}, []
     for ec in ccfg.estimators:
