@@ -25,7 +25,7 @@ SITE = ROOT / "docs" / "site"
 WITH_ALL = ("sets", "estimators", "models")
 WITHOUT_ALL = ("experiments", "studies")
 GUIDES = ("own-recording", "own-robot", "certify-estimator", "dask-campaign")
-THEORY = ("obe", "exact-bounds", "sdp", "set-families", "physical")
+THEORY = ("obe", "exact-bounds", "sdp", "set-families", "physical", "excitation")
 
 
 def public_names() -> dict[str, set[str]]:
