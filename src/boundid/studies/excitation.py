@@ -44,10 +44,10 @@ from boundid.studies.h4_experiment import h4_config
 #: the design's random streams: np.random.default_rng([seed, stream]) (the experiment's own rng is
 #: default_rng(seed), untouched by the design)
 DESIGN_STREAM, ERROR_STREAM = 32, 33
-#: a parameter counts as narrowed when its width is below this fraction of its prior width: *narrowed
-#: for certain* by a trajectory when twice its design width is (then every recording of the design
-#: regression whose errors are within the bound, with the truth in the prior box, narrows it:
-#: :mod:`boundid.experiments.excitation_design`), *narrowed* on a recording when its exact width is
+#: a parameter is *narrowed* on a recording when its exact width is below this fraction of its prior
+#: width, and *narrowed for certain* by a trajectory when twice its design width is (then every
+#: recording of the design rows whose errors are within the bound, with the truth in the prior box,
+#: narrows it: :mod:`boundid.experiments.excitation_design`)
 NARROWED = 0.99
 #: the comparison's recordings: errors uniform within this fraction of the bound (zero errors give the
 #: design set itself; errors that fill the bound cut the set far below what real data, whose bound is
@@ -167,11 +167,11 @@ def design_excitation(cfg: StudyConfig, model: RobotModel, criterion: str | None
     fam = family(cfg, model)
     e_joint = joint_bounds(cfg, model.n_joints)
     _, half = prior_box(model, cfg.prior)
-    t0 = time.perf_counter()
     def rows(excitation):
         _, W, _, e = design_rows(model, fam, excitation, settings.rate_hz, e_joint)
         return W, e
 
+    t0 = time.perf_counter()
     search = search_excitation(fam.draw, rows, settings.candidates, np.random.default_rng([cfg.seed, DESIGN_STREAM]),
                                half, errors=(InputError, UnreachablePoseError, SolverError))
     return ExcitationDesign(criterion, settings, fam.what, search, time.perf_counter() - t0)
