@@ -190,13 +190,11 @@ def _comparison_job(cfg, progress=None):
     with one BLAS/OpenMP thread."""
     from boundid.studies.campaign import one_thread
     from boundid.studies.excitation import compare_criteria
+    from boundid.studies.progress import QUIET
     from boundid.studies.registry import make_robot
 
-    with one_thread():
-        if progress is None:
-            return compare_criteria(cfg, make_robot(cfg.robot, cfg.robot_options))
-        with progress.stage(f"{cfg.name}: excitation criteria side by side"):
-            return compare_criteria(cfg, make_robot(cfg.robot, cfg.robot_options))
+    with one_thread(), (progress or QUIET).stage(f"{cfg.name}: excitation criteria side by side"):
+        return compare_criteria(cfg, make_robot(cfg.robot, cfg.robot_options))
 
 
 def _run_studies(configs, out: Path, quiet: bool, jobs: int = 1, context=None,

@@ -612,7 +612,7 @@ class Polytope:
             (self.box is None or np.array_equal(self.box[0], -self.box[1]))
 
         def axes_optima() -> np.ndarray:
-            if centred and not np.any(self._frame.origin if self._frame is not None else 0.0):
+            if centred and not np.any(self._frame.origin):        # (the engine, hence the frame, exists)
                 Z = self._minimize_many(costs[:p])
                 return np.vstack([Z, -Z])
             return self._minimize_many(costs)

@@ -106,7 +106,7 @@ class ExperimentConfig:
     validation_duration_s: float = 0.0
     options: dict = field(default_factory=dict)
     measured: MeasuredData | None = None
-    excitation: str = "default"  # "default" (the experiment's own) | a criterion of EXCITATION_CRITERIA
+    excitation: str = "default"  # one of EXCITATIONS: "default" (the experiment's own) or a criterion
     design: ExcitationSearchConfig = ExcitationSearchConfig()
 
 
