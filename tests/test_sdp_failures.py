@@ -30,13 +30,17 @@ CALLS = {
 
 def _clarabel_fails(monkeypatch):
     """Make Clarabel end 'infeasible_inaccurate' (the real solve runs, its status is replaced), and the
-    outer ellipsoid's own solver in the multipliers fail too, so that it falls back to Clarabel."""
+    outer and inner ellipsoids' own interior-point solvers fail too, so that they fall back to Clarabel."""
     real = sdp._run
 
     def multipliers_fail(G, mid, half):
         raise SolverError("outer_ellipsoid: the S-procedure's interior-point method did not converge.")
 
+    def inscribed_fails(A, b, x0=None):
+        raise SolverError("inner_ellipsoid: the interior-point method did not converge.")
+
     monkeypatch.setattr(sdp, "s_procedure_multipliers", multipliers_fail)
+    monkeypatch.setattr(sdp, "max_volume_inscribed", inscribed_fails)
 
     def clarabel_fails(problem, solver, **opts):
         real(problem, solver, **opts)

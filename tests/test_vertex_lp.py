@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog
 
-from boundid.sets._vertex_lp import INFEASIBLE, NO_START, OPTIMAL, STEP_LIMIT, UNBOUNDED, vertex_simplex
+from boundid.sets._vertex_lp import INFEASIBLE, NO_START, OPTIMAL, REACHED, STEP_LIMIT, UNBOUNDED, vertex_simplex
 from boundid.sets._working_set import Block, LPStatusError, WorkingSetLP
 
 
@@ -198,3 +198,53 @@ def test_new_objective_starts_at_the_best_remembered_optimum(monkeypatch):
     x = lp.minimize_many(-D[0][None, :])[0]
     assert steps[0] == 0
     assert D[0] @ x == pytest.approx(_linprog_max(D[0], G, lo, up, -np.ones(n), np.ones(n)), abs=1e-9)
+
+
+def test_simplex_stops_at_its_target_on_the_way_to_the_optimum():
+    """With a target below the optimum the primal simplex stops at a vertex at or beyond it (REACHED),
+    a feasible point with fewer steps; with one above, the optimum as without a target."""
+    rng = np.random.default_rng(5)
+    n, m = 8, 400
+    G, lo, up = _strips(rng, m, n)
+    col_lo, col_hi = -np.ones(n), np.ones(n)
+    A, LO, UP = _dense(G, lo, up, col_lo, col_hi)
+    d0 = rng.normal(size=n)
+    act, side = _corner(d0)
+    assert vertex_simplex(A, LO, UP, d0, act, side, 1e-10, 1e-10, 10_000)[0] == OPTIMAL
+    reached = 0
+    for _ in range(20):
+        d = rng.normal(size=n)
+        best = _linprog_max(d, G, lo, up, col_lo, col_hi)
+        start = d @ vertex_simplex(A, LO, UP, d, act.copy(), side.copy(), 1e-10, 1e-10, 0)[1]
+        target = start + 0.3 * (best - start)
+        status, x, _, steps = vertex_simplex(A, LO, UP, d, act.copy(), side.copy(), 1e-10, 1e-10, 10_000, target)
+        full = vertex_simplex(A, LO, UP, d, act.copy(), side.copy(), 1e-10, 1e-10, 10_000)
+        assert status in (REACHED, OPTIMAL)
+        assert target <= d @ x <= best + 1e-9
+        assert np.all(A @ x <= UP + 1e-9) and np.all(A @ x >= LO - 1e-9)
+        assert steps <= full[3]
+        reached += status == REACHED
+        status, x, _, _ = vertex_simplex(A, LO, UP, d, act.copy(), side.copy(), 1e-10, 1e-10, 10_000, best + 1.0)
+        assert status == OPTIMAL and d @ x == pytest.approx(best, abs=1e-9)
+    assert reached >= 10
+
+
+def test_reaches_settles_each_direction_at_its_target_or_its_support():
+    """WorkingSetLP.reaches over a pool: each answer is a point of the polytope (every pool row
+    holds) at or beyond its target, or, where the support falls short (or a normal cone shares an
+    optimum), the support itself, flagged exact; supports against linprog."""
+    rng = np.random.default_rng(6)
+    n, m = 10, 2000
+    G, lo, up = _strips(rng, m, n)
+    lp = WorkingSetLP([Block(G, lo.copy(), up.copy())], -np.ones(n), np.ones(n), tol=1e-9)
+    D = rng.normal(size=(40, n))
+    ref = np.array([_linprog_max(d, G, lo, up, -np.ones(n), np.ones(n)) for d in D])
+    targets = np.where(np.arange(40) % 4 == 0, ref + 0.1, ref - 0.3 * np.abs(ref))
+    vals, V, which, exact = lp.reaches(D, targets)
+    X = V[which]
+    np.testing.assert_allclose(np.einsum("ij,ij->i", D, X), vals, atol=1e-12)
+    assert np.all(G @ X.T <= up[:, None] + 1e-9) and np.all(G @ X.T >= lo[:, None] - 1e-9)
+    np.testing.assert_allclose(vals[exact], ref[exact], atol=1e-9)
+    assert np.all(vals[~exact] >= targets[~exact]) and np.all(vals <= ref + 1e-9)
+    assert np.all(exact[targets > ref])              # a target beyond the support: the support
+    assert (~exact).sum() >= 10

@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 #: status codes of :func:`vertex_simplex`
-OPTIMAL, NO_START, UNBOUNDED, INFEASIBLE, STEP_LIMIT, SINGULAR = 0, 1, 2, 3, 4, 5
+OPTIMAL, NO_START, UNBOUNDED, INFEASIBLE, STEP_LIMIT, SINGULAR, REACHED = 0, 1, 2, 3, 4, 5, 6
 #: steps between two refactorisations of N^-1
 _REFACTOR = 64
 #: smallest |pivot| a ratio test accepts (the callers' rows have norms about 1: unit strips, and
@@ -138,7 +138,7 @@ def _replace(Ninv, N, b, j, row, rhs):
 
 
 @njit(cache=True, nogil=True)   # releases the GIL: another thread's SDP compiles meanwhile
-def vertex_simplex(A, lo, up, d, act, side, ftol, dtol, max_steps):
+def vertex_simplex(A, lo, up, d, act, side, ftol, dtol, max_steps, target=np.inf):
     """max d^T x over lo <= A x <= up from the basis (act, side), both (n,), updated in place.
 
     A : (m, n) rows (column bounds included as unit rows); lo, up : (m,) (+-inf allowed).
@@ -146,6 +146,10 @@ def vertex_simplex(A, lo, up, d, act, side, ftol, dtol, max_steps):
     multiplier accepted (both absolute). Returns (status, x (n,), lam (n,), steps): status
     OPTIMAL with x the optimum and lam its certificate (d = N^T lam, lam >= -dtol), else one
     of NO_START, UNBOUNDED, INFEASIBLE, STEP_LIMIT, SINGULAR (x, lam then meaningless).
+    ``target``: the primal simplex stops at the first vertex with d^T x >= target (status REACHED,
+    x that vertex, within ftol of every row, and (act, side) its basis): when only a point of the
+    polytope beyond a level is wanted, the first steps, which gain most, are enough (UR5,
+    six joints: 20 of a support's median 175 steps already gain 28 % of its objective).
     """
     m, n = A.shape
     isact = np.zeros(m, dtype=np.bool_)
@@ -179,6 +183,8 @@ def vertex_simplex(A, lo, up, d, act, side, ftol, dtol, max_steps):
                 return STEP_LIMIT, x, lam, steps
             steps += 1
             if primal:
+                if d @ x >= target:
+                    return REACHED, x, lam, steps
                 lam = Ninv.T @ d
                 j = -1
                 if stalled > 2 * n:                 # Bland: the lowest row index leaves

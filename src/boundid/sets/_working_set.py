@@ -32,6 +32,8 @@ normal cone (the cone spanned by the outward normals of the constraints active i
 from __future__ import annotations
 
 import functools
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import highspy
@@ -40,7 +42,7 @@ from numba import njit
 from threadpoolctl import ThreadpoolController
 
 from boundid.errors import SolverError
-from boundid.sets._vertex_lp import OPTIMAL, vertex_simplex
+from boundid.sets._vertex_lp import OPTIMAL, REACHED, vertex_simplex
 
 _STATUS = highspy.HighsModelStatus
 _AT_LOWER = highspy.HighsBasisStatus.kLower
@@ -71,6 +73,33 @@ class _QuietHighs(highspy.Highs):
         super().enableCallbacks()
 
 
+class _OneBlasThread:
+    """BLAS limited to one thread while any thread of the process asks for it (a re-entrant, counted
+    hold: threadpoolctl's limit is process-wide, so two threads each setting and restoring it would
+    restore it in the wrong order)."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._holders = 0
+        self._limiter = None
+
+    def __enter__(self):
+        with self._lock:
+            if self._holders == 0:
+                self._limiter = _BLAS.limit(limits=1, user_api="blas")
+            self._holders += 1
+
+    def __exit__(self, *exc):
+        with self._lock:
+            self._holders -= 1
+            if self._holders == 0:
+                self._limiter.restore_original_limits()
+                self._limiter = None
+
+
+_ONE_BLAS_THREAD = _OneBlasThread()
+
+
 def one_blas_thread(f):
     """Run ``f`` with BLAS limited to one thread. The LP loop alternates the simplex with many
     small BLAS calls; idle OpenBLAS threads spin between them and take the core the simplex needs
@@ -79,7 +108,7 @@ def one_blas_thread(f):
 
     @functools.wraps(f)
     def run(*args, **kwargs):
-        with _BLAS.limit(limits=1, user_api="blas"):
+        with _ONE_BLAS_THREAD:
             return f(*args, **kwargs)
 
     return run
@@ -468,6 +497,22 @@ class WorkingSetLP:
                 continue
             self._archive_add(x, (act, s.copy()))
 
+    def clone(self) -> WorkingSetLP:
+        """A second engine over the same pool (the blocks shared, read only) with this one's working
+        set, bases and remembered optima, for another thread: each engine serves one thread at a time
+        (:func:`reaches_in_threads`)."""
+        other = WorkingSetLP(self.blocks, self.col_lo.copy(), self.col_hi.copy(),
+                             seed=[(b, self.ws_rows(b)) for b in range(len(self.blocks))], tol=self.tol,
+                             batch=self.batch, max_rounds=self.max_rounds)
+        other.active = list(self.active)
+        other.take_basis(self)
+        return other
+
+    def take_rows(self, other: WorkingSetLP) -> None:
+        """Add to the working set the pool rows ``other`` (an engine over the same pool) has and this one lacks."""
+        for b in range(len(self.blocks)):
+            self.add_rows(b, other.ws_rows(b))
+
     @property
     def col_lo(self) -> np.ndarray:
         """Column lower bounds (n_cols,): the first rows of the dense form (a view)."""
@@ -535,9 +580,13 @@ class WorkingSetLP:
         return out
 
     # ------------------------------------------------------------------ solves
-    def _solve(self, cost: np.ndarray, keep_basis: bool = False, new: bool = False) -> np.ndarray:
-        """argmin of cost^T x on the working set; ``keep_basis``: start from, and keep, the last
-        basis of this same objective; ``new``: the first solve of this objective.
+    def _solve(self, cost: np.ndarray, keep_basis: bool = False, new: bool = False,
+               target: float = -np.inf) -> tuple[np.ndarray, bool]:
+        """(x, reached): argmin of cost^T x on the working set, reached False; ``keep_basis``: start
+        from, and keep, the last basis of this same objective; ``new``: the first solve of this
+        objective. ``target``: a vertex with cost^T x <= target on the way is answer enough if it
+        satisfies the whole pool (one pass); then reached is True and x that vertex, not the argmin
+        (else the simplex goes on from it to the argmin).
 
         The vertex simplex (:mod:`boundid.sets._vertex_lp`) starts from the last basis (primal
         feasible for a new objective, dual feasible after rows were added for the same one), or
@@ -561,10 +610,19 @@ class WorkingSetLP:
         corner = np.where(d >= 0, 1.0, -1.0)
         if np.all(np.isfinite(np.where(corner > 0, self.col_hi, self.col_lo))):
             starts.append((np.arange(self.n_cols), corner))
+        max_steps = max(1000, 5 * self._A.shape[0])
         for act, side in starts:
             act, side = act.copy(), side.copy()
-            status, x, _, _ = vertex_simplex(self._A, self._lo, self._up, d, act, side, _FTOL, _DTOL,
-                                             max(1000, 5 * self._A.shape[0]))
+            status, x, _, _ = vertex_simplex(self._A, self._lo, self._up, d, act, side, _FTOL, _DTOL, max_steps,
+                                             -target)
+            if status == REACHED:
+                if not any(len(rows) for _, rows in self.violators(x[:, None], batch=1)[0]):
+                    self._act, self._side, self._x = act, side, None    # not an optimal basis
+                    self._archive_add(x, (act.copy(), side.copy()))
+                    self.n_solves += 1
+                    return x.copy(), True
+                status, x, _, _ = vertex_simplex(self._A, self._lo, self._up, d, act, side, _FTOL, _DTOL,
+                                                 max_steps, np.inf)
             if status == OPTIMAL:
                 self._act, self._side, self._x = act, side, x
                 break
@@ -573,7 +631,7 @@ class WorkingSetLP:
         self.n_solves += 1
         if keep_basis and self._act is not None:
             self._bases[cost.tobytes()] = (self._act, self._side)
-        return x.copy()
+        return x.copy(), False
 
     def _highs_solve(self, cost: np.ndarray) -> np.ndarray:
         """argmin of cost^T x on the working set by HiGHS's dual simplex, which also takes its
@@ -623,17 +681,32 @@ class WorkingSetLP:
         all their optima and adds each one's most violated rows. ``levels``: sizes of strided
         samples of block 0 to run on first (ascending; the full pool always comes last).
         """
-        costs = np.atleast_2d(np.asarray(costs, dtype=float))
+        return self._minimize(np.atleast_2d(np.asarray(costs, dtype=float)), levels)[0]
+
+    @one_blas_thread
+    def reach(self, cost: np.ndarray, target: float) -> tuple[np.ndarray, bool]:
+        """(x, reached): a point of the pool's polytope with cost^T x <= ``target`` met by the simplex on
+        its first way to the argmin (reached True), else the argmin over the pool (reached False)."""
+        X, reached = self._minimize(np.asarray(cost, dtype=float)[None, :], (), np.array([target]))
+        return X[0], bool(reached[0])
+
+    def _minimize(self, costs: np.ndarray, levels: tuple[int, ...] = (),
+                  targets: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(X, reached) of :meth:`minimize_many`; ``targets`` (k,): the first solve of each objective on
+        the full pool may stop at a vertex of the pool with cost^T x <= its target (see :meth:`_solve`)."""
         X = np.empty((costs.shape[0], self.n_cols))
+        reached = np.zeros(costs.shape[0], dtype=bool)
         m0 = self.blocks[0].m if self.blocks else 0
         keep = self.active[0]
         stages = [strided_sample(m0, n) for n in levels] + [keep]
-        for stage in stages:
+        for s, stage in enumerate(stages):
             self.active[0] = stage
             pending = np.arange(costs.shape[0])
             for r in range(self.max_rounds):
                 for i in pending:
-                    X[i] = self._solve(costs[i], keep_basis=costs.shape[0] > 1, new=r == 0)
+                    target = targets[i] if targets is not None and r == 0 and s == len(levels) else -np.inf
+                    X[i], reached[i] = self._solve(costs[i], keep_basis=costs.shape[0] > 1, new=r == 0,
+                                                   target=target)
                 worst = self.violators(X[pending].T, batch=max(8, self.batch // max(1, pending.size // 4)))
                 still = []
                 for i, w in zip(pending, worst, strict=True):
@@ -646,8 +719,8 @@ class WorkingSetLP:
                     break
             else:
                 raise SolverError(f"constraint generation did not converge in {self.max_rounds} rounds.")
-        self._remember(costs, X)
-        return X
+        self._remember(costs[~reached], X[~reached])
+        return X, reached
 
     def _remember(self, costs: np.ndarray, X: np.ndarray) -> None:
         """Archive the optima X of the pool (one per row of ``costs``) with their bases."""
@@ -694,6 +767,12 @@ class WorkingSetLP:
         """max over the pool's polytope of d^T x for each row d of ``dirs`` (see :func:`supports`)."""
         return supports(self, dirs, below, outer)
 
+    @one_blas_thread
+    def reaches(self, dirs: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """For each row d of ``dirs`` (k, n_cols) a point of the pool's polytope with d^T x >= its
+        target, or the maximiser (see :func:`reaches`)."""
+        return reaches(self, dirs, targets)
+
 
 def supports(lp, dirs: np.ndarray, below: np.ndarray | None = None,
              outer: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -712,18 +791,64 @@ def supports(lp, dirs: np.ndarray, below: np.ndarray | None = None,
     an LP: its value is that bound and ``which`` is -1. The LPs take the pending directions in
     order (neighbours in the data are often neighbours on the polytope: warm starts).
     """
+    return _supports(lp, np.atleast_2d(np.asarray(dirs, dtype=float)), below, outer, None)[:3]
+
+
+def reaches(lp, dirs: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """For each row d of ``dirs`` (k, n_cols): a point of the polytope of ``lp`` with d^T x >= its
+    ``targets`` entry (k,) if the support reaches it, else the maximiser.
+
+    Returns (values (k,), vertices (v, n_cols), which (k,), exact (k,)): values[i] = d_i^T of
+    vertex which[i]; exact[i] True when that is the support, False when it is only a point at or
+    beyond the target (a lower bound of the support). Each LP's simplex stops at the first vertex
+    of the polytope beyond its target (:meth:`WorkingSetLP.reach`); every vertex found settles the
+    pending directions whose target it reaches, and an optimal one also those in its normal cone
+    (:func:`supports`), so a target that asks little costs a few simplex steps.
+    """
     dirs = np.atleast_2d(np.asarray(dirs, dtype=float))
+    return _supports(lp, dirs, None, None, np.broadcast_to(np.asarray(targets, dtype=float), dirs.shape[:1]))
+
+
+def reaches_in_threads(engines: list[WorkingSetLP], dirs: np.ndarray, targets: np.ndarray):
+    """:func:`reaches` with the directions split in order between ``engines`` (clones over one pool,
+    :meth:`WorkingSetLP.clone`), each share solved in a thread of its own (the vertex simplex
+    releases the GIL); afterwards every engine takes the rows the others added. Same answers as
+    :func:`reaches` on one engine, up to which vertex answers where several are optimal."""
+    dirs = np.atleast_2d(np.asarray(dirs, dtype=float))
+    targets = np.broadcast_to(np.asarray(targets, dtype=float), dirs.shape[:1])
+    parts = [idx for idx in np.array_split(np.arange(len(dirs)), len(engines)) if idx.size]
+    with _ONE_BLAS_THREAD, ThreadPoolExecutor(len(parts)) as pool:
+        outs = list(pool.map(lambda eng, idx: _supports(eng, dirs[idx], None, None, targets[idx]), engines, parts))
+    for a in engines:
+        for b in engines:
+            if a is not b:
+                a.take_rows(b)
+    values, exact = np.empty(len(dirs)), np.empty(len(dirs), dtype=bool)
+    which, verts, start = np.empty(len(dirs), dtype=np.int64), [], 0
+    for idx, (v, V, w, ex) in zip(parts, outs, strict=True):
+        values[idx], exact[idx], which[idx] = v, ex, w + start
+        verts.append(V)
+        start += len(V)
+    return values, np.vstack(verts), which, exact
+
+
+def _supports(lp, dirs, below, outer, targets):
+    """(values, vertices, which, exact) of :func:`supports` (``targets`` None) and :func:`reaches`."""
     k = dirs.shape[0]
     values, which, verts = np.full(k, np.nan), np.full(k, -1, dtype=np.int64), []
+    exact = np.zeros(k, dtype=bool)
     ub = np.full(k, np.inf)
     pending = np.arange(k)
     while pending.size:
         i = pending[0]
-        x = lp.minimize_many(-dirs[i][None, :])[0]
+        if targets is not None and np.isfinite(targets[i]):
+            x, reached = lp.reach(-dirs[i], -targets[i])
+        else:
+            x, reached = lp.minimize_many(-dirs[i][None, :])[0], False
         verts.append(x)
         covered = pending == i
         screened = np.zeros(pending.size, dtype=bool)
-        found = lp.active_normals(x)
+        found = None if reached else lp.active_normals(x)
         if found is not None:
             N, own, opp = found
             try:
@@ -740,11 +865,14 @@ def supports(lp, dirs: np.ndarray, below: np.ndarray | None = None,
                         bound = np.where(lam > 0, lam * own[:, None], -lam * opp[:, None]).sum(axis=0)
                     ub[pending] = np.minimum(ub[pending], np.where(np.isnan(bound), np.inf, bound))
                     screened = ~covered & (ub[pending] < below[pending])
+        exact[pending[covered]] = not reached
+        if targets is not None:                     # a point of the polytope beyond a target settles it
+            covered |= dirs[pending] @ x >= targets[pending]
         values[pending[covered]] = dirs[pending[covered]] @ x
         which[pending[covered]] = len(verts) - 1
         values[pending[screened]] = ub[pending[screened]]
         pending = pending[~covered & ~screened]
-    return values, np.array(verts), which
+    return values, np.array(verts), which, exact
 
 
 def _highs_rows(h: highspy.Highs, vals: np.ndarray, lo: np.ndarray, up: np.ndarray) -> None:

@@ -41,6 +41,7 @@ the bounds are returned (tolerances stated in :class:`Bounds`).
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -64,6 +65,7 @@ from boundid.sets._working_set import (
     frame_rows,
     level_ratios,
     max_ratio,
+    reaches_in_threads,
     sample_levels,
     strided_sample,
 )
@@ -77,6 +79,10 @@ TOUCH_TOL = 1e-8
 LP_TOL = 1e-9
 #: stated tolerance of the vertex certificate, relative to P's half-widths (see Bounds)
 VERTEX_TOL = 1e-8
+#: threads that share a batch of strip extents (:meth:`Polytope._strip_reach`), each on its own copy of
+#: the working-set LP; a batch of fewer than _THREAD_MIN directions stays on one
+LP_THREADS = min(2, os.cpu_count() or 1)
+_THREAD_MIN = 16
 #: the bounds are re-solved in the box frame when a half-width in the first frame is outside this
 _FRAME_OK = (0.1, 10.0)
 _EPS = np.finfo(float).eps
@@ -241,6 +247,8 @@ class Polytope:
         self._frame: _Frame | None = None
         self._first: _Frame | None = None
         self._engine: WorkingSetLP | None = None
+        #: (engine, its clones for the other LP threads), made when a batch is first shared
+        self._clones: tuple[WorkingSetLP | None, list[WorkingSetLP]] = (None, [])
         self._bounds: Bounds | None = None
         self._consistency: Consistency | None = None
         self._vertices: np.ndarray | None = None
@@ -805,26 +813,49 @@ class Polytope:
     def _strip_extents(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) of (w_k * scale)^T z / n_k over P in the current frame for strips ``rows``,
         by the batched supports of :meth:`WorkingSetLP.supports` (normal cones shared)."""
+        rows = np.asarray(rows, dtype=np.int64)
+        up = np.concatenate([np.ones(rows.size, dtype=bool), np.zeros(rows.size, dtype=bool)])
+        vals, _ = self._strip_reach(np.concatenate([rows, rows]), up, np.where(up, np.inf, -np.inf))
+        return vals[rows.size:], vals[: rows.size]
+
+    def _strip_reach(self, rows: np.ndarray, upper: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """One side of each strip of ``rows`` (k,) over P, in the current frame along its unit normal
+        g_k = (w_k * scale) / n_k: max of g_k^T z where ``upper`` (k,) is True, else min; or, where a
+        point of P reaches ``targets`` (k,; beyond the max: >=, beyond the min: <=; +-inf: none), the
+        value of such a point. Returns (values (k,), exact (k,) True where the value is the extent)."""
         self.bounds()
         eng = self._engine
         F = self._frame
+        rows = np.asarray(rows, dtype=np.int64)
         r, n = F.rn(rows)
-        G = self.W[rows] * F.scale / n[:, None]
-        D = np.vstack([G, -G])
-        side = np.concatenate([(r + self.e_max[rows]) / n, -(r - self.e_max[rows]) / n])
-        # a side that a known point of P touches is the support itself: no LP
+        sgn = np.where(upper, 1.0, -1.0)
+        D = sgn[:, None] * self.W[rows] * F.scale / n[:, None]
+        side = (sgn * r + self.e_max[rows]) / n        # the strip's own side, along D
+        goal = sgn * np.asarray(targets, dtype=float)
+        # a side that a known point of P touches is the extent itself, one beyond the target settles it: no LP
         Zk = (self.found_points() - F.origin) / F.scale
-        touched = np.max(D @ Zk.T, axis=1) >= side - LP_TOL if len(Zk) else np.zeros(len(D), dtype=bool)
-        vals = np.where(touched, side, np.nan)
-        if not touched.all():
+        best = np.max(D @ Zk.T, axis=1) if len(Zk) else np.full(rows.size, -np.inf)
+        touched = best >= side - LP_TOL
+        vals = np.where(touched, side, np.where(best >= goal, best, np.nan))
+        exact = touched.copy()
+        todo = np.isnan(vals)
+        if todo.any():
             try:
-                v, V, _ = eng.supports(D[~touched])
+                if LP_THREADS > 1 and todo.sum() >= _THREAD_MIN:
+                    v, V, _, ex = reaches_in_threads([eng, *self._engine_clones(LP_THREADS - 1)], D[todo], goal[todo])
+                else:
+                    v, V, _, ex = eng.reaches(D[todo], goal[todo])
             except LPStatusError as exc:
                 raise self._status_error(exc.status) from None
-            vals[~touched] = v
+            vals[todo], exact[todo] = v, ex
             self._found.extend(F.to_theta(V))
-        m = len(rows)
-        return -vals[m:], vals[:m]
+        return sgn * vals, exact
+
+    def _engine_clones(self, k: int) -> list[WorkingSetLP]:
+        """k copies of the LP engine for other threads (:meth:`WorkingSetLP.clone`), made once per engine."""
+        if self._clones[0] is not self._engine or len(self._clones[1]) != k:
+            self._clones = (self._engine, [self._engine.clone() for _ in range(k)])
+        return self._clones[1]
 
     def tightened(self, rows=None) -> Polytope:
         """The strips ``rows`` (default: all) each shrunk to the exact extent of P along w_k

@@ -29,6 +29,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from boundid._validation import as_float_array, as_matrix, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
+from boundid.sets._inscribed import max_volume_inscribed
 from boundid.sets._mvee import mvee_dual
 from boundid.sets._s_lagrangian import s_procedure_multipliers
 from boundid.sets.conic import CLARABEL_DENSE_LINALG, CLARABEL_LINALG
@@ -163,10 +164,19 @@ def _lower_triangle(n: int) -> sp.csr_matrix:
 _INNER_DENSE_DIM = 36
 
 
-def _inscribed(Gw: np.ndarray, hw: np.ndarray, triangular: bool, allow_fallback: bool):
+def _inscribed(Gw: np.ndarray, hw: np.ndarray, triangular: bool, allow_fallback: bool, interior_point: bool = True):
     """max ln det M s.t. |M^T g_i| + g_i^T x0 <= h_i for the rows of (Gw, hw): ((solver, status), M, x0).
-    ``triangular``: M lower triangular, objective sum ln M_jj (second-order and exponential cones
-    only); else M symmetric positive semidefinite with cvxpy's log_det (two semidefinite cones)."""
+    With ``interior_point``, first by the primal-dual interior-point method of
+    :mod:`boundid.sets._inscribed` ([ZhangGao2003]; M the Cholesky factor of its E^2); should it fail
+    (or without it), by Clarabel. ``triangular``: M lower triangular, objective sum ln M_jj
+    (second-order and exponential cones only); else M symmetric positive semidefinite with cvxpy's
+    log_det (two semidefinite cones)."""
+    if interior_point:
+        try:
+            x0, E2, steps = max_volume_inscribed(Gw, hw)
+            return (f"interior point, Zhang-Gao ({steps} steps)", "optimal"), np.linalg.cholesky(E2), x0
+        except (SolverError, np.linalg.LinAlgError):
+            pass
     n = Gw.shape[1]
     with _CVXPY:
         x0 = cp.Variable(n)
@@ -193,17 +203,21 @@ _INNER_DROP = 1e-2
 def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) -> SDPResult:
     """Maximum-volume ellipsoid inscribed in P (exact, convex; [refs §SDP]).
 
-    E = {x0 + L u : |u| <= 1} with L lower triangular (every ellipsoid has one: the Cholesky
-    factor of its shape): maximise log det L = sum ln L_jj s.t. |L^T g_i| + g_i^T x0 <= h_i for
-    every side of every strip and halfspace, and the LP bounding box (implied by P). A convex
-    problem with second-order and exponential cones only, the same optimum as the symmetric
+    E = {x0 + L u : |u| <= 1}: maximise log det L s.t. |L^T g_i| + g_i^T x0 <= h_i for every side
+    of every strip and halfspace, and the LP bounding box (implied by P). Each working set is solved
+    by a primal-dual interior-point method on the problem's optimality conditions
+    (:mod:`boundid.sets._inscribed`, [ZhangGao2003]: O(m^2 n + m^3) a Newton step for m sides;
+    six-joint UR5, p = 52, 1,393 sides: 2-3 s where Clarabel took 22-24 s), started at the
+    working set's Chebyshev centre. Should it fail, Clarabel solves the working set with L lower
+    triangular (every ellipsoid has one: the Cholesky factor of its shape), maximising
+    sum ln L_jj with second-order and exponential cones only, the same optimum as the symmetric
     square root's log-det form without its two semidefinite cones (12x faster at p = 22,
-    :mod:`boundid.bench.bench_sets`); should Clarabel fail on it (seen on about 1 in 120 small
-    random polytopes with halfspace priors), the same working set is solved in that log-det form
-    (``info["formulation"]`` says which answered). Solved in the box
-    frame of P by constraint generation over the sides (a working set seeded with the sides
-    active at the LP-bound vertices; the most violated sides added after each solve, the sides
-    with a slack above 1 % dropped, each at most once) so N = 1e5 rows work. The answer is
+    :mod:`boundid.bench.bench_sets`); should Clarabel fail on that (seen on about 1 in 120 small
+    random polytopes with halfspace priors), the same working set is solved in that log-det form.
+    ``solver`` of the result names the method of the last solve, ``info["formulation"]`` the form.
+    Solved in the box frame of P by constraint generation over the sides (a working set seeded
+    with the sides active at the LP-bound vertices; the most violated sides added after each
+    solve, the sides with a slack above 1 % dropped, each at most once) so N = 1e5 rows work. The answer is
     shrunk about x0 so that it lies inside P exactly (the solver may leave it ~1e-9 outside).
     ``strips`` of the result: the strips whose sides were in the final working set. The result
     is cached on P (john_outer reuses it).
@@ -235,7 +249,7 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
             if not triangular:
                 raise
             triangular = False        # Clarabel failed on the triangular factor: the log-det form
-            (solver, status), Lv, xv = _inscribed(Gw, hw, triangular, allow_fallback)
+            (solver, status), Lv, xv = _inscribed(Gw, hw, triangular, allow_fallback, interior_point=False)
         viol = (np.linalg.norm(G @ Lv, axis=1) + G @ xv - h) / (1 + np.abs(h))
         new = np.flatnonzero((viol > 1e-7) & ~ws)
         if new.size == 0:
@@ -264,7 +278,8 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     strips = np.unique(owner[ws][owner[ws] >= 0])
     res = SDPResult(ell, status, time.perf_counter() - t0, strips, solver,
                     {"rounds": rounds, "working_sides": int(ws.sum()), "sides_dropped": int(left.sum()), "shrink": s,
-                     "formulation": "triangular factor" if triangular else
+                     "formulation": "multipliers, E^2 = (A^T Y A)^-1" if solver.startswith("interior point") else
+                     "triangular factor" if triangular else
                      "symmetric root (Clarabel failed on the triangular factor)"})
     P._sdp_cache[key] = res
     return res
@@ -462,7 +477,7 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
     # the interval of g_k^T z spanned by the points of P found so far (inside the true extent)
     lin, uin = np.full(P.n_strips, np.inf), np.full(P.n_strips, -np.inf)
     exact_lo, exact_hi = np.full(P.n_strips, np.nan), np.full(P.n_strips, np.nan)
-    n_lp = 0
+    n_lp = reached = 0
 
     def add_points(theta):
         if len(theta):
@@ -480,14 +495,53 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
         n_lp += len(P._found) - before
         add_points(P._found[before:])
 
-    def tighten(rows):
-        rows = rows[np.isnan(exact_lo[rows])]
+    def solve_sides(rows, upper, targets):
+        # one side of each strip: its exact extent, or a point of P at or beyond its target
+        nonlocal reached
         if rows.size == 0:
             return
         before = len(P._found)
-        lz, uz = P._strip_extents(rows)
+        v, ex = P._strip_reach(rows, upper, targets)
         new_points(before)
-        exact_lo[rows], exact_hi[rows] = lz - LP_TOL, uz + LP_TOL
+        exact_hi[rows[upper & ex]] = v[upper & ex] + LP_TOL
+        exact_lo[rows[~upper & ex]] = v[~upper & ex] - LP_TOL
+        reached += int(np.sum(~ex))
+
+    def tighten(rows):
+        # the exact extent of both sides of every strip of rows
+        lo_, hi_ = rows[np.isnan(exact_lo[rows])], rows[np.isnan(exact_hi[rows])]
+        both = np.concatenate([hi_, lo_])
+        up = np.arange(both.size) < hi_.size
+        solve_sides(both, up, np.where(up, np.inf, -np.inf))
+
+    def estimates(rows):
+        # each side's exact extent where known, else the extent of the points of P found so far
+        return (np.where(np.isnan(exact_lo[rows]), lin[rows], exact_lo[rows]),
+                np.where(np.isnan(exact_hi[rows]), uin[rows], exact_hi[rows]))
+
+    def settle(rows, Zd, near):
+        # price the candidate strips rows with as little LP as it takes: first each one's far side (the
+        # end of its interval farther from the pseudo-mean) only up to the point that would bring its
+        # reduced cost to -near, then likewise its near side, then, if it still may help, both sides exactly
+        # (UR5, six joints: the far side's LP, stopped at its target, settles most of the candidates)
+        far_up = None
+        for phase in ("far", "near", "exact"):
+            lo_e, hi_e = estimates(rows)
+            rc, var, mean = _reduced_costs(Zd, G[rows], lo_e, hi_e)
+            if far_up is None:
+                far_up = (hi_e - mean) >= (mean - lo_e)
+            live = rc > -near
+            rows, lo_e, hi_e, var, mean, far_up = (a[live] for a in (rows, lo_e, hi_e, var, mean, far_up))
+            if phase == "exact" or rows.size == 0:
+                break
+            upper = far_up if phase == "far" else ~far_up
+            need = (var + near) * (1 + 1e-9)        # the product (mean - lo) (hi - mean) that settles it
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t_hi = np.where(mean - lo_e > 0, mean + need / (mean - lo_e), np.inf)
+                t_lo = np.where(hi_e - mean > 0, mean - need / (hi_e - mean), -np.inf)
+            open_ = np.where(upper, np.isnan(exact_hi[rows]), np.isnan(exact_lo[rows]))
+            solve_sides(rows[open_], upper[open_], np.where(upper, t_hi, t_lo)[open_])
+        tighten(rows)
 
     # fixed rows: the LP box and the halfspace priors, tightened
     fixed_G, fixed_lo, fixed_hi = [np.eye(n)], [zlo - LP_TOL], [zhi + LP_TOL]
@@ -518,10 +572,10 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
     while True:
         rounds += 1
         k = np.array(ws, dtype=int)
-        loose = np.isnan(exact_lo[k])
+        loose = np.isnan(exact_lo[k]) | np.isnan(exact_hi[k])
         Gs = np.vstack([fixed_G, G[k]])
-        lo = np.concatenate([fixed_lo, np.where(loose, loose_lo[k], exact_lo[k])])
-        hi = np.concatenate([fixed_hi, np.where(loose, loose_hi[k], exact_hi[k])])
+        lo = np.concatenate([fixed_lo, np.where(np.isnan(exact_lo[k]), loose_lo[k], exact_lo[k])])
+        hi = np.concatenate([fixed_hi, np.where(np.isnan(exact_hi[k]), loose_hi[k], exact_hi[k])])
         mid, half = 0.5 * (lo + hi), np.maximum(0.5 * (hi - lo), 0.0)
         A0, b0, tau, sig, solver, status, Zd = _outer_multipliers(Gs, mid, half, allow_fallback)
         if rounds >= max_rounds:
@@ -544,14 +598,12 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
         # to turn helpful as the dual moves (UR5 study: one round fewer, of 3; H4 and arm likewise)
         near = _NEAR * price_tol
         while True:
-            ex = ~np.isnan(exact_lo[cand_pool])
-            lo_c = np.where(ex, exact_lo[cand_pool], lin[cand_pool])
-            hi_c = np.where(ex, exact_hi[cand_pool], uin[cand_pool])
-            rc = _reduced_costs(Zd, Gp, lo_c, hi_c)[0]
+            ex = ~np.isnan(exact_lo[cand_pool]) & ~np.isnan(exact_hi[cand_pool])
+            rc = _reduced_costs(Zd, Gp, *estimates(cand_pool))[0]
             cand = np.flatnonzero((rc > -near) & ~ex)
             if cand.size == 0 or np.count_nonzero(ex & (rc > price_tol)) >= batch:
                 break
-            tighten(cand_pool[cand[np.argsort(rc[cand])[::-1][:batch]]])
+            settle(cand_pool[cand[np.argsort(rc[cand])[::-1][:batch]]], Zd, near)
         max_rc = float(rc.max()) if rc.size else -np.inf
         if not max_rc > price_tol:
             break
@@ -576,8 +628,9 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
     used = np.array(ws, dtype=int)
     res = SDPResult(ell, status, time.perf_counter() - t0, np.sort(used), solver,
                     {"certificate_residual": mu, "n_constraints": len(mid), "vertices_checked": len(V),
-                     "rounds": rounds, "strips_dropped": dropped, "strips_tightened": int(np.sum(~np.isnan(exact_lo))),
-                     "support_lps": n_lp, "max_reduced_cost": max_rc, "price_tol": price_tol,
+                     "rounds": rounds, "strips_dropped": dropped,
+                     "strips_tightened": int(np.sum(~np.isnan(exact_lo) & ~np.isnan(exact_hi))),
+                     "sides_reached": reached, "support_lps": n_lp, "max_reduced_cost": max_rc, "price_tol": price_tol,
                      "pool": int(pool.size)})
     P._sdp_cache[key] = res
     return res
