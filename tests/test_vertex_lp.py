@@ -248,3 +248,30 @@ def test_reaches_settles_each_direction_at_its_target_or_its_support():
     assert np.all(vals[~exact] >= targets[~exact]) and np.all(vals <= ref + 1e-9)
     assert np.all(exact[targets > ref])              # a target beyond the support: the support
     assert (~exact).sum() >= 10
+
+
+def test_reaches_in_two_threads_equal_one_engine_and_share_rows():
+    """The directions split between an engine and its clone, solved in two threads, give the supports
+    linprog gives (exact ones) or points of the polytope past their targets, as one engine does;
+    afterwards both engines hold the union of their rows, and BLAS has its own thread limit back."""
+    from threadpoolctl import threadpool_info
+
+    from boundid.sets._working_set import reaches_in_threads
+    rng = np.random.default_rng(7)
+    n, m = 10, 2000
+    G, lo, up = _strips(rng, m, n)
+    lp = WorkingSetLP([Block(G, lo.copy(), up.copy())], -np.ones(n), np.ones(n), tol=1e-9)
+    lp.supports(rng.normal(size=(3, n)))
+    twin = lp.clone()
+    D = rng.normal(size=(40, n))
+    ref = np.array([_linprog_max(d, G, lo, up, -np.ones(n), np.ones(n)) for d in D])
+    targets = np.where(np.arange(40) % 2 == 0, np.inf, ref - 0.3 * np.abs(ref))
+    limits = [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
+    vals, V, which, exact = reaches_in_threads([lp, twin], D, targets)
+    assert [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"] == limits
+    np.testing.assert_allclose(np.einsum("ij,ij->i", D, V[which]), vals, atol=1e-12)
+    np.testing.assert_allclose(vals[exact], ref[exact], atol=1e-9)
+    assert np.all(exact[::2]) and np.all(vals[~exact] >= targets[~exact])
+    X = V[which]
+    assert np.all(G @ X.T <= up[:, None] + 1e-9) and np.all(G @ X.T >= lo[:, None] - 1e-9)
+    assert np.array_equal(lp.ws_rows(0), twin.ws_rows(0))

@@ -25,7 +25,9 @@ is certified on a fresh N^-1, x and lam each refined by one residual step: every
 rows included, within ``ftol`` of its bounds, lam >= -``dtol`` and |d - N^T lam| <= ``dtol``
 (HiGHS's own tolerances).
 
-Anything else returns a status, and the caller solves the same LP with HiGHS: a start that is
+With a ``target`` the primal simplex stops at the first vertex at or beyond it (status REACHED): for
+callers that need only a point of the polytope past a level, which the first steps, gaining most,
+usually reach. Anything else returns a status, and the caller solves the same LP with HiGHS: a start that is
 neither primal nor dual feasible (or whose basis rows have an infinite side), an unbounded edge,
 an infeasible dual step, a singular basis, or no answer within ``max_steps``. This solver never
 reports an LP infeasible or unbounded.
