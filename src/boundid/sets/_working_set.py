@@ -97,7 +97,8 @@ class _OneBlasThread:
                 self._limiter = None
 
 
-_ONE_BLAS_THREAD = _OneBlasThread()
+#: hold it (``with ONE_BLAS_THREAD:``) around work that must run with one BLAS thread
+ONE_BLAS_THREAD = _OneBlasThread()
 
 
 def one_blas_thread(f):
@@ -108,7 +109,7 @@ def one_blas_thread(f):
 
     @functools.wraps(f)
     def run(*args, **kwargs):
-        with _ONE_BLAS_THREAD:
+        with ONE_BLAS_THREAD:
             return f(*args, **kwargs)
 
     return run
@@ -817,7 +818,7 @@ def reaches_in_threads(engines: list[WorkingSetLP], dirs: np.ndarray, targets: n
     dirs = np.atleast_2d(np.asarray(dirs, dtype=float))
     targets = np.broadcast_to(np.asarray(targets, dtype=float), dirs.shape[:1])
     parts = [idx for idx in np.array_split(np.arange(len(dirs)), len(engines)) if idx.size]
-    with _ONE_BLAS_THREAD, ThreadPoolExecutor(len(parts)) as pool:
+    with ONE_BLAS_THREAD, ThreadPoolExecutor(len(parts)) as pool:
         outs = list(pool.map(lambda eng, idx: _supports(eng, dirs[idx], None, None, targets[idx]), engines, parts))
     for a in engines:
         for b in engines:
