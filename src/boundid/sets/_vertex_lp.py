@@ -132,9 +132,13 @@ def _replace(Ninv, N, b, j, row, rhs):
     """Row j of the basis becomes ``row`` (right-hand side ``rhs``): Sherman-Morrison on N^-1
     for N' = N + e_j (row - N_j)^T."""
     u = row - N[j]
-    c = Ninv[:, j].copy()
     v = u @ Ninv
-    Ninv -= np.outer(c, v) / (1.0 + v[j])
+    c = Ninv[:, j] / (1.0 + v[j])
+    n = Ninv.shape[0]
+    for r in range(n):                          # in place: no n x n temporary
+        cr = c[r]
+        for k in range(n):
+            Ninv[r, k] -= cr * v[k]
     N[j] = row
     b[j] = rhs
 
@@ -157,6 +161,7 @@ def vertex_simplex(A, lo, up, d, act, side, ftol, dtol, max_steps, target=np.inf
     isact = np.zeros(m, dtype=np.bool_)
     for j in range(n):
         isact[act[j]] = True
+    cand = np.empty(m, dtype=np.int64)          # the ratio test's candidate rows
     steps, stalled, switches, was_primal = 0, 0, 0, True
     while True:
         N, b = _basis(A, lo, up, act, side)
@@ -187,7 +192,7 @@ def vertex_simplex(A, lo, up, d, act, side, ftol, dtol, max_steps, target=np.inf
             if primal:
                 if d @ x >= target:
                     return REACHED, x, lam, steps
-                lam = Ninv.T @ d
+                lam = d @ Ninv                      # N^-T d, as a product with the rows of N^-1
                 j = -1
                 if stalled > 2 * n:                 # Bland: the lowest row index leaves
                     for k in range(n):
@@ -202,16 +207,22 @@ def vertex_simplex(A, lo, up, d, act, side, ftol, dtol, max_steps, target=np.inf
                 e = -Ninv[:, j]
                 alpha = A @ e
                 tmax = np.inf                       # Harris pass 1: the step with slack ftol
-                for i in range(m):
+                nc = 0                              # rows whose exact ratio is within the running tmax:
+                for i in range(m):                  # pass 2 needs no others
                     if isact[i]:
                         continue
                     a = alpha[i]
                     if a > _PIVOT:
-                        t = (up[i] - Ax[i] + ftol) / a
+                        t0 = (up[i] - Ax[i]) / a
+                        t = t0 + ftol / a
                     elif a < -_PIVOT:
-                        t = (lo[i] - Ax[i] - ftol) / a
+                        t0 = (lo[i] - Ax[i]) / a
+                        t = t0 - ftol / a
                     else:
                         continue
+                    if t0 <= tmax:
+                        cand[nc] = i
+                        nc += 1
                     if t < tmax:
                         tmax = t
                 kl = act[j]
@@ -229,9 +240,8 @@ def vertex_simplex(A, lo, up, d, act, side, ftol, dtol, max_steps, target=np.inf
                 if tmax == np.inf:
                     return UNBOUNDED, x, lam, steps
                 best, bi, bs, bt = 0.0, -1, 0.0, 0.0    # pass 2: the largest pivot within tmax
-                for i in range(m):
-                    if isact[i]:
-                        continue
+                for c in range(nc):
+                    i = cand[c]
                     a = alpha[i]
                     if a > _PIVOT:
                         t, s = (up[i] - Ax[i]) / a, 1.0
@@ -254,7 +264,7 @@ def vertex_simplex(A, lo, up, d, act, side, ftol, dtol, max_steps, target=np.inf
                 if v <= ftol:
                     break
                 row = s * A[i]
-                u = Ninv.T @ row                    # row = N^T u
+                u = row @ Ninv                      # row = N^T u
                 tmax = np.inf
                 for k in range(n):
                     if u[k] > _PIVOT:
