@@ -321,10 +321,10 @@ def test_john_outer_contains_a_simplex(seed):
     assert np.all(john.ellipsoid.mahalanobis2(V) <= 1 + 1e-9)
 
 
-def test_polytope_ellipsoids_concurrent_equal_one_after_the_other():
-    """The outer and inscribed ellipsoids solved at once (two threads) are those of the calls one
-    after the other on a fresh copy of the polytope (the same algorithms run alone), John's too;
-    and the outer one, certified, still contains every vertex (Qhull, independent of the LPs)."""
+def test_polytope_ellipsoids_equal_the_calls_on_a_fresh_polytope():
+    """The stage's ellipsoids (the inscribed, the outer, John's, on one polytope that caches its LP
+    work) are those of the three calls on a fresh copy of the polytope, in the caller's order of
+    names; and the outer one, certified, still contains every vertex (Qhull, independent of the LPs)."""
     P, Q = random_polytope(3, 5, 300), random_polytope(3, 5, 300)
     got = sdp.polytope_ellipsoids(P)
     ref = {"outer": sdp.outer_ellipsoid(Q), "inner": sdp.inner_ellipsoid(Q), "john": sdp.john_outer(Q)}

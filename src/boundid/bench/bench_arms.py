@@ -72,13 +72,14 @@ for every parameter; every draw is seeded by the case. `N` counts rows (one per 
 **Parts**, on one polytope P = `Polytope.from_strips(W, y, e_max, box)`, as a study solves them
 (each later part reuses what P caches: the LP bounds and frame, John's the inscribed ellipsoid):
 `LP bounds` (`P.bounds()`); then the three ellipsoids by `sdp.polytope_ellipsoids`, which solves
-the `outer ellipsoid` (`sdp.outer_ellipsoid`) and the `inner ellipsoid` (`sdp.inner_ellipsoid`) at
-once in two threads, then the `John ellipsoid` (`sdp.john_outer`: the inscribed one scaled, checked
-on the known vertices); each one's `time_s` is its own wall time there (they overlap; their CPU time
-is counted once, on the exact stage's row); `exact stage` is the wall time of the LP bounds plus that
-of the three ellipsoids, as in a study's "exact optima" (the goal's measure); then `physical bounds`
-(`model.physical_constraints()` and `PhysicalSet(..., plain=P).bounds()`: one pseudo-inertia LMI
-per link, Clarabel, the 2p objectives' solves in two threads). A part that raises has no time and
+the `inner ellipsoid` (`sdp.inner_ellipsoid`), the `outer ellipsoid` (`sdp.outer_ellipsoid`, its
+LPs on two threads) and the `John ellipsoid` (`sdp.john_outer`: the inscribed one scaled, checked
+on the known vertices) one after the other; each one's `time_s` is its own wall time there (their
+CPU time is counted once, on the exact stage's row); `exact stage` is the wall time of the LP bounds
+plus that of the three ellipsoids, as in a study's "exact optima" (the goal's measure); then
+`physical bounds` (`model.physical_constraints()` and `PhysicalSet(..., plain=P).bounds()`: one
+pseudo-inertia LMI per link, Clarabel, the 2p objectives on two threads, each on a working set of
+its own). A part that raises has no time and
 says why in `detail`.
 
 **Memory.** Each case runs in a fresh process (multiprocessing, "spawn"); `peak_rss_gb` is that
@@ -172,9 +173,9 @@ def _described(part: str, res, seconds: float, cpu: float, describe) -> tuple[st
 
 def _parts(model: BaseParameterModel, W: np.ndarray, y: np.ndarray) -> list[tuple[str, float, float, str]]:
     """[(part, wall s, CPU s, detail)] of :data:`PARTS` and the exact stage, on one polytope as a study
-    solves it: the LP bounds, then the three ellipsoids by ``sdp.polytope_ellipsoids`` (the outer and
-    the inscribed at once, in two threads, so each one's wall time is its own and their CPU time is
-    counted once, on the exact stage's row), then the physically consistent bounds. A part that
+    solves it: the LP bounds, then the three ellipsoids by ``sdp.polytope_ellipsoids`` (one after the
+    other, each with its own wall time; their CPU time is counted once, on the exact stage's row), then
+    the physically consistent bounds. A part that
     raises gets NaN times and the error in its detail (the later parts still run)."""
     box = (np.full(model.p, -PRIOR), np.full(model.p, PRIOR))
     P = Polytope.from_strips(W, y, E_MAX, box=box)
@@ -193,7 +194,7 @@ def _parts(model: BaseParameterModel, W: np.ndarray, y: np.ndarray) -> list[tupl
         out.append(_described(part, res, seconds, np.nan, describe[name]))
     failed = isinstance(bounds, Exception) or isinstance(ells, Exception)
     out.append(("exact stage", np.nan if failed else t_lp + t_sdp, np.nan if failed else c_lp + c_sdp,
-                "LP bounds, then the three ellipsoids as a study solves them (outer and inscribed in two threads)"))
+                "LP bounds, then the three ellipsoids as a study solves them (the outer one's LPs on two threads)"))
     phys, t, c = _timed(lambda: PhysicalSet(W, y, E_MAX, model.physical_constraints(), box=box, plain=P).bounds())
     out.append(_described("physical bounds", phys, t, c, lambda b: f"{b.method}, certificate {b.certificate}; "
                                                                   f"{_info(b, ('rounds', 'solves', 'working_rows'))}"))

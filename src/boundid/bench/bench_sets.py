@@ -46,12 +46,12 @@ Goals (study scale):
   the study's own regression (built by the study machinery, cached under .cache/boundid); each
   study's stage runs 3 times on a fresh polytope and its row is the median run, with the range
   of the 3 in `detail` (the shared machine's speed varies by a third from minute to minute).
-  The stage runs as in a study: the outer and inscribed ellipsoids at once, in two threads
-  (:func:`boundid.sets.sdp.polytope_ellipsoids`); `detail` gives each one's own wall time and the
-  stage's CPU time. The outer ellipsoid is the S-procedure by column generation over every
-  tightened strip; its reference in the same run is the previous method (one LP per candidate
-  side for redundancy removal, 2 LPs per non-redundant strip for tightening, then one
-  S-procedure on all of them): `ratio` = reference time / our time; `log_vol_per_axis` of both
+  The stage runs as in a study (:func:`boundid.sets.sdp.polytope_ellipsoids`: the inscribed,
+  outer and John ellipsoids one after the other, the outer one's LPs on two threads); `detail`
+  gives each one's own wall time and the stage's CPU time. The outer ellipsoid is the
+  S-procedure by column generation over every tightened strip; its reference in the same run is
+  the previous method (one LP per candidate side for redundancy removal, 2 LPs per non-redundant
+  strip for tightening, then one S-procedure on all of them): `ratio` = reference time / our time; `log_vol_per_axis` of both
   (ours may only be smaller).
   The three studies: H4 (p = 14), direct-drive arm (p = 9), UR5 from its URDF (p = 22, 2,577
   strips; the goal was set before this study existed, and its previous-method reference is not
@@ -286,8 +286,8 @@ STUDY_RUNS = 3
 
 def _exact_stage(W, y, e, box) -> dict:
     """One run of the exact stage on a fresh polytope, as a study runs it: the LP bounds, then
-    :func:`boundid.sets.sdp.polytope_ellipsoids` (the outer and inscribed ellipsoids at once, then
-    John's). {stage: (wall time, result)}, and "total": (wall time, CPU time of the process)."""
+    :func:`boundid.sets.sdp.polytope_ellipsoids` (the inscribed, outer and John ellipsoids).
+    {stage: (wall time, result)}, and "total": (wall time, CPU time of the process)."""
     P = Polytope.from_strips(W, y, e, box=box)
     w0, c0 = time.perf_counter(), time.process_time()
     bounds = P.bounds()

@@ -1011,8 +1011,7 @@ PART_MARK = "↳ "
 
 def _time_section(page: Page, r: StudyResult, page_s: float) -> None:
     """Where the run's time went: each stage's wall time [s] and share, the exact optima's parts
-    (marked PART_MARK) under their total (the outer and the inscribed ellipsoid run at once, in two threads,
-    so their sum can exceed it), and the page up to this table."""
+    (marked PART_MARK) under their total, and the page up to this table."""
     total = sum(r.timings.values()) + page_s
     rows = []
     for key, seconds in r.timings.items():
@@ -1031,7 +1030,7 @@ def _time_section(page: Page, r: StudyResult, page_s: float) -> None:
                  f"{total:.1f} s in all on {platform_line()}; the slowest stage: "
                  f"{STAGE_NAMES.get(slowest, slowest)} ({r.timings.get(slowest, 0.0):.1f} s).{size}")
     page.table(df, f"Wall time of each stage of this run [s]. {PART_MARK.strip()}: the parts of the exact optima "
-               "(the outer and inscribed ellipsoids are solved at once, in two threads). The machine's load varies; "
+               "(one after the other; the outer ellipsoid's LPs on two threads). The machine's load varies; "
                "reports/benchmarks/ compares costs side by side.", float_format="{:.2f}", name="times")
 
 

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import cvxpy as cp
@@ -43,7 +42,7 @@ _MAX_REPAIR = 1e-4
 _CLARABEL = {"tol_gap_abs": 1e-7, "tol_gap_rel": 1e-7, "tol_feas": 1e-7}
 #: cvxpy numbers its variables and expressions with a global counter that is not thread-safe, so
 #: models are built, compiled and unpacked under this lock; the solver itself (Clarabel releases
-#: the GIL) runs outside it, which lets :func:`polytope_ellipsoids` solve two SDPs at once
+#: the GIL) runs outside it, so that threads of the caller may solve SDPs at once
 _CVXPY = threading.RLock()
 
 
@@ -779,13 +778,12 @@ def polytope_ellipsoids(P: Polytope, names=("outer", "inner", "john"),
     :func:`inner_ellipsoid`, "john": :func:`john_outer`), each as (result, wall time in s), or
     (the exception it raised, time) so that one failure leaves the others their answers.
 
-    The outer and the inscribed ellipsoid are independent (both start from the LP bounds, which
-    are solved first) and are solved at once, the inscribed one in a second thread: Clarabel
-    releases the GIL, so on 2 cores the inscribed ellipsoid costs no wall time beside the outer
-    one (UR5 study: its 1.1 s beside the outer one's 3.6 s, at about 0.3 s of contention). The
-    answers are those of the calls one after the other: the threads share no state but the
-    finished LP bounds; John's ellipsoid, which checks the vertices the outer one's LPs find, is
-    taken after both.
+    They are solved one after the other, after the LP bounds they all start from: the inscribed
+    ellipsoid (it adds nothing to P), the outer one, then John's, which checks the vertices the
+    outer one's LPs find. The outer ellipsoid's LPs run on two threads of their own
+    (:data:`boundid.sets.polytope.LP_THREADS`), so the inscribed ellipsoid in a third one would
+    only take their cores (arms benchmark, Panda: the inscribed ellipsoid took 10 s beside the
+    outer one, 1 s alone).
     """
     unknown = set(names) - {"outer", "inner", "john"}
     if unknown:
@@ -805,15 +803,7 @@ def polytope_ellipsoids(P: Polytope, names=("outer", "inner", "john"),
         P.bounds()
     except Exception as exc:                      # noqa: BLE001 - every ellipsoid needs them
         return {name: (exc, time.perf_counter() - t0) for name in names}
-    out = {}
-    if "outer" in names and "inner" in names:
-        with ThreadPoolExecutor(max_workers=1) as pool:
-            inner = pool.submit(timed, "inner")
-            out["outer"] = timed("outer")
-            out["inner"] = inner.result()
-    for name in names:
-        if name not in out:
-            out[name] = timed(name)
+    out = {name: timed(name) for name in ("inner", "outer", "john") if name in names}
     return {name: out[name] for name in names}
 
 
