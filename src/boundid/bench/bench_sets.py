@@ -51,8 +51,8 @@ Goals (study scale):
   gives each one's own wall time and the stage's CPU time. The outer ellipsoid is the
   S-procedure by column generation over every tightened strip; its reference in the same run is
   the previous method (one LP per candidate side for redundancy removal, 2 LPs per non-redundant
-  strip for tightening, then one S-procedure on all of them): `ratio` = reference time / our time; `log_vol_per_axis` of both
-  (ours may only be smaller).
+  strip for tightening, then one S-procedure on all of them): `ratio` = reference time / our
+  time; `log_vol_per_axis` of both (ours may only be smaller).
   The three studies: H4 (p = 14), direct-drive arm (p = 9), UR5 from its URDF (p = 22, 2,577
   strips; the goal was set before this study existed, and its previous-method reference is not
   run: at p = 22 it alone would take minutes).
