@@ -841,6 +841,33 @@ def reaches(lp, dirs: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.n
     return _supports(lp, dirs, None, None, np.broadcast_to(np.asarray(targets, dtype=float), dirs.shape[:1]))
 
 
+def minimize_in_threads(engines: list[WorkingSetLP], costs: np.ndarray) -> np.ndarray:
+    """:meth:`WorkingSetLP.minimize_many` with the objectives split in order between ``engines`` (clones
+    over one pool, :meth:`WorkingSetLP.clone`; each takes the first one's active part of the pool), each
+    share solved in a thread of its own; afterwards every engine takes the rows the others added.
+    Returns the argmins (k, n_cols) in the order of ``costs``: the same optimal values as on one
+    engine (where an optimum is not unique, another optimal vertex may answer)."""
+    costs = np.atleast_2d(np.asarray(costs, dtype=float))
+    parts = [idx for idx in np.array_split(np.arange(len(costs)), len(engines)) if idx.size]
+    for eng in engines[1:]:
+        eng.active = list(engines[0].active)
+    with ONE_BLAS_THREAD, ThreadPoolExecutor(len(parts)) as pool:
+        outs = list(pool.map(lambda eng, idx: eng._minimize(costs[idx])[0], engines, parts))
+    _share_rows(engines)
+    X = np.empty((len(costs), costs.shape[1]))
+    for idx, Xi in zip(parts, outs, strict=True):
+        X[idx] = Xi
+    return X
+
+
+def _share_rows(engines: list[WorkingSetLP]) -> None:
+    """Every engine takes the working-set rows the others have."""
+    for a in engines:
+        for b in engines:
+            if a is not b:
+                a.take_rows(b)
+
+
 def reaches_in_threads(engines: list[WorkingSetLP], dirs: np.ndarray, targets: np.ndarray):
     """:func:`reaches` with the directions split in order between ``engines`` (clones over one pool,
     :meth:`WorkingSetLP.clone`), each share solved in a thread of its own (the vertex simplex
@@ -851,10 +878,7 @@ def reaches_in_threads(engines: list[WorkingSetLP], dirs: np.ndarray, targets: n
     parts = [idx for idx in np.array_split(np.arange(len(dirs)), len(engines)) if idx.size]
     with ONE_BLAS_THREAD, ThreadPoolExecutor(len(parts)) as pool:
         outs = list(pool.map(lambda eng, idx: _supports(eng, dirs[idx], None, None, targets[idx]), engines, parts))
-    for a in engines:
-        for b in engines:
-            if a is not b:
-                a.take_rows(b)
+    _share_rows(engines)
     values, exact = np.empty(len(dirs)), np.empty(len(dirs), dtype=bool)
     which, verts, start = np.empty(len(dirs), dtype=np.int64), [], 0
     for idx, (v, V, w, ex) in zip(parts, outs, strict=True):

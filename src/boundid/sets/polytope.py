@@ -65,6 +65,7 @@ from boundid.sets._working_set import (
     frame_rows,
     level_ratios,
     max_ratio,
+    minimize_in_threads,
     reaches_in_threads,
     sample_levels,
     strided_sample,
@@ -473,10 +474,14 @@ class Polytope:
         self._engine.active[0] = pool
 
     # ------------------------------------------------------------------ LP calls
-    def _minimize_many(self, costs_z: np.ndarray, levels: tuple[int, ...] = ()) -> np.ndarray:
-        """argmin over P of each row of ``costs_z`` (k, p) in frame coordinates -> (k, p) in z."""
+    def _minimize_many(self, costs_z: np.ndarray, levels: tuple[int, ...] = (), threads: bool = False) -> np.ndarray:
+        """argmin over P of each row of ``costs_z`` (k, p) in frame coordinates -> (k, p) in z; ``threads``:
+        the objectives shared by LP_THREADS threads, each on its own copy of the working-set LP."""
+        eng = self._theta_engine()
         try:
-            return self._theta_engine().minimize_many(costs_z, levels=levels)
+            if threads and not levels and LP_THREADS > 1 and len(costs_z) >= 2 * LP_THREADS:
+                return minimize_in_threads([eng, *self._engine_clones(LP_THREADS - 1)], costs_z)
+            return eng.minimize_many(costs_z, levels=levels)
         except LPStatusError as exc:
             raise self._status_error(exc.status) from None
 
@@ -621,13 +626,14 @@ class Polytope:
 
         def axes_optima() -> np.ndarray:
             if centred and not np.any(self._frame.origin):        # (the engine, hence the frame, exists)
-                Z = self._minimize_many(costs[:p])
+                Z = self._minimize_many(costs[:p], threads=True)
                 return np.vstack([Z, -Z])
-            return self._minimize_many(costs)
+            return self._minimize_many(costs, threads=True)
 
         def count():
-            stats["lp_solves"] += self._engine.n_solves
-            stats["passes"] += self._engine.n_passes
+            engines = [self._engine, *(self._clones[1] if self._clones[0] is self._engine else [])]
+            stats["lp_solves"] += sum(e.n_solves for e in engines)
+            stats["passes"] += sum(e.n_passes for e in engines)
             stats["frames"] += 1
 
         # stages on strided samples; after each, move to the frame of its bounding box (which
