@@ -152,14 +152,14 @@ def test_solver_failures_raise_solver_error(monkeypatch):
     y = W @ np.ones(3) + rng.uniform(-0.5, 0.5, 50)
     real = Polytope._minimize_many
 
-    def shifted(self, costs, levels=()):
-        return real(self, costs, levels) + 1e-3
+    def shifted(self, costs, levels=(), threads=False):
+        return real(self, costs, levels, threads) + 1e-3
 
     monkeypatch.setattr(Polytope, "_minimize_many", shifted)
     with pytest.raises(SolverError, match="certificate"):
         Polytope(W, y, 0.5).bounds()
 
-    def infeasible(self, costs, levels=()):
+    def infeasible(self, costs, levels=(), threads=False):
         raise self._status_error("infeasible")
 
     monkeypatch.setattr(Polytope, "_minimize_many", infeasible)

@@ -195,10 +195,12 @@ def _inscribed(Gw: np.ndarray, hw: np.ndarray, triangular: bool, allow_fallback:
     return outcome, Mv, x0.value
 
 
-#: the inscribed ellipsoid's first working set has at most this many sides per parameter, those nearest the
-#: centre of the LP-bound vertices: the interior-point step costs O(m^3) for m sides (arms benchmark,
-#: six-joint UR5: 1,289 sides active at the LP-bound vertices, 1.55 s in 2 rounds; 208 of them, 0.44 s in
-#: 5 rounds; Panda 2.73 s against 0.99 s; the same ellipsoids to 1e-10 of ln vol)
+#: the first working sets of the inscribed and the outer ellipsoid have at most this many sides (strips)
+#: per parameter among those active at the LP-bound vertices, the nearest to the vertices' mean: their
+#: interior-point steps cost O(m^3) for m of them, and the rest is found by constraint generation. Arms
+#: benchmark, six-joint UR5: inscribed, 1,289 sides in 2 rounds 1.55 s, 208 sides in 5 rounds 0.44 s
+#: (Panda 2.73 s against 0.99 s); outer, the SDP solves 3.8 s against 1.1 s (Panda 8.0 s against 4.5 s),
+#: the same LP work; the same ellipsoids to 1e-8 of ln vol
 _SEED_MAX = 4
 #: the inscribed ellipsoid's working set drops a side whose slack at the last solution exceeds this
 #: (relative to 1 + |h|, as its violations)
@@ -449,9 +451,10 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
 
     ``strips`` (default: every strip of P) is the pool. The S-procedure is solved in its
     multipliers (:mod:`boundid.sets._s_lagrangian`) by column generation on a working set. It starts
-    with the strips active at the LP-bound vertices, each as its own interval clipped to the LP box's
-    extent along it (a wider slab, still containing P, known without an LP); the strips that keep
-    a multiplier are then tightened exactly by LP and the others leave. After each solve the dual's
+    with the strips active at the LP-bound vertices (at most 4 p, the nearest to those vertices'
+    mean), each as its own interval clipped to the LP box's extent along it (a wider slab, still
+    containing P, known without an LP); the strips that keep a multiplier are then tightened exactly
+    by LP and the others leave. After each solve the dual's
     pseudo-moments price every pool strip (:func:`~boundid.sets.sdp._reduced_costs`). A side of a
     strip whose exact extent is unknown is priced with the extent of the points of P found so far,
     which can only overstate the reduced cost (the true extent is wider). The candidates, ``batch``
@@ -575,6 +578,8 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
     pool_fin = pool[np.isfinite(h[pool])]
     Vz = (b.vertices() - origin) / scale
     act = pool_fin[np.any(np.abs(Vz @ G[pool_fin].T - c[pool_fin]) >= h[pool_fin] - 1e-7, axis=0)]
+    if act.size > _SEED_MAX * n:                        # the nearest to the vertices' mean (as the inner's)
+        act = act[np.argsort(h[act] - np.abs(G[act] @ Vz.mean(axis=0) - c[act]))[: _SEED_MAX * n]]
     # until tightened, a strip enters the S-procedure as its own interval clipped to the LP box's
     # extent along it: a wider slab that still contains P. Only the strips that keep a multiplier
     # are then tightened (UR5, all six joints: 1,610 strips active at the LP-bound vertices, of
