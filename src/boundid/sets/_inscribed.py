@@ -152,6 +152,8 @@ def max_volume_inscribed(A: np.ndarray, b: np.ndarray, x0: np.ndarray | None = N
         yz = y * z
         g = float(np.mean(yz))
         feas = max(float(np.max(np.abs(R1))), float(np.max(np.abs(R2))))
+        if not np.isfinite(feas):
+            raise SolverError("inner_ellipsoid: the interior-point iterates are not finite.")
         if feas < TOL * scale and float(yz @ h) < TOL * n:
             Linv = solve_triangular(L, np.eye(n), lower=True)
             return x0 + x, Linv.T @ Linv, step

@@ -455,8 +455,8 @@ class WorkingSetLP:
         #: the last optimal basis of each objective of a multi-objective minimize_many (by the
         #: bytes of its cost), so that each re-solve starts at its own vertex, not at the last one
         self._bases: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-        #: optima of the pool found so far and their bases (the newest _ARCHIVE, a ring): a new
-        #: objective starts at the best of them (see _solve)
+        #: optima of the pool found so far, and vertices of it met at a target, with their bases (the
+        #: newest _ARCHIVE, a ring): a new objective starts at the best of them (see _solve)
         self._archive_x = np.empty((_ARCHIVE, self.n_cols))
         self._archive: list[tuple[np.ndarray, np.ndarray]] = []
         self._n_archived = 0
@@ -751,12 +751,12 @@ class WorkingSetLP:
                     break
             else:
                 raise SolverError(f"constraint generation did not converge in {self.max_rounds} rounds.")
-        self._remember(costs[~reached], X[~reached])
+        self._remember(costs, X, keep=~reached)
         return X, reached
 
-    def _remember(self, costs: np.ndarray, X: np.ndarray) -> None:
-        """Archive the optima X of the pool (one per row of ``costs``) with their bases."""
-        for cost, x in zip(costs, X, strict=True):
+    def _remember(self, costs: np.ndarray, X: np.ndarray, keep: np.ndarray) -> None:
+        """Archive the optima X of the pool (one per row of ``costs``, where ``keep``) with their bases."""
+        for cost, x in zip(costs[keep], X[keep], strict=True):
             if costs.shape[0] > 1:                  # each objective kept its own last basis
                 basis = self._bases.get(cost.tobytes())
             elif self._x is not None and np.array_equal(x, self._x):
@@ -871,11 +871,15 @@ def _share_rows(engines: list[WorkingSetLP]) -> None:
 def reaches_in_threads(engines: list[WorkingSetLP], dirs: np.ndarray, targets: np.ndarray):
     """:func:`reaches` with the directions split in order between ``engines`` (clones over one pool,
     :meth:`WorkingSetLP.clone`), each share solved in a thread of its own (the vertex simplex
-    releases the GIL); afterwards every engine takes the rows the others added. Same answers as
-    :func:`reaches` on one engine, up to which vertex answers where several are optimal."""
+    releases the GIL); afterwards every engine takes the rows the others added. The same supports
+    as :func:`reaches` on one engine (where several vertices are optimal, another may answer); a
+    point past a target may be another one, since each engine starts from its own remembered
+    vertices. The split is fixed, so the answers do not depend on the threads' timing."""
     dirs = np.atleast_2d(np.asarray(dirs, dtype=float))
     targets = np.broadcast_to(np.asarray(targets, dtype=float), dirs.shape[:1])
     parts = [idx for idx in np.array_split(np.arange(len(dirs)), len(engines)) if idx.size]
+    for eng in engines[1:]:
+        eng.active = list(engines[0].active)
     with ONE_BLAS_THREAD, ThreadPoolExecutor(len(parts)) as pool:
         outs = list(pool.map(lambda eng, idx: _supports(eng, dirs[idx], None, None, targets[idx]), engines, parts))
     _share_rows(engines)

@@ -306,7 +306,8 @@ class _StripProgram:
     objective, against 1,262 to 1,327 rows and 1.4 solves for one working set shared by all 2p
     objectives (3 x less work; the small programs are also better conditioned: on the Panda's
     1,681-row shared set Clarabel failed, RETRY too, where no small one needs RETRY). A last solve
-    that ends AlmostSolved gets a second opinion (_SECOND_OPINION). The objectives
+    that ends AlmostSolved, or whose optimum lies more than _SECOND_OPINION outside one of its own
+    strips, gets a second opinion (_SECOND_OPINION_SETTINGS). The objectives
     are independent: _THREADS threads take them in turn, each objective whole on one thread, so the
     answers do not depend on the threads. info: rounds (the most solves one objective needed),
     solves (all of them, second opinions apart), working_rows (the largest working set),

@@ -80,9 +80,10 @@ TOUCH_TOL = 1e-8
 LP_TOL = 1e-9
 #: stated tolerance of the vertex certificate, relative to P's half-widths (see Bounds)
 VERTEX_TOL = 1e-8
-#: threads that share a batch of strip extents (:meth:`Polytope._strip_reach`), each on its own copy of
-#: the working-set LP; a batch of fewer than _THREAD_MIN directions stays on one
-LP_THREADS = min(2, os.cpu_count() or 1)
+#: threads that share a batch of strip extents (:meth:`Polytope._strip_reach`) and the LP bounds' 2p
+#: objectives, each on its own copy of the working-set LP (the cores this process may use, at most 2);
+#: a batch of fewer than _THREAD_MIN directions stays on one
+LP_THREADS = min(2, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
 _THREAD_MIN = 16
 #: the bounds are re-solved in the box frame when a half-width in the first frame is outside this
 _FRAME_OK = (0.1, 10.0)
@@ -465,6 +466,7 @@ class Polytope:
         passes look at (None: all)."""
         old = self._engine
         self._frame = F
+        self._clones = (None, [])                  # the old engine's copies go with it
         seed = [(0, old.ws_rows(0)), (1, np.arange(self._n_half))] if old is not None else \
             [(0, self._seed(F)), (1, np.arange(self._n_half))]
         self._engine = WorkingSetLP([self._strip_pool(F), self._halfspace_block(F)], *self._col_bounds(F),
@@ -817,8 +819,8 @@ class Polytope:
         return -self.support(-d), self.support(d)
 
     def _strip_extents(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(lo, hi) of (w_k * scale)^T z / n_k over P in the current frame for strips ``rows``,
-        by the batched supports of :meth:`WorkingSetLP.supports` (normal cones shared)."""
+        """(lo, hi) of (w_k * scale)^T z / n_k over P in the current frame for strips ``rows``: both
+        sides exactly, by :meth:`_strip_reach` (normal cones shared)."""
         rows = np.asarray(rows, dtype=np.int64)
         up = np.concatenate([np.ones(rows.size, dtype=bool), np.zeros(rows.size, dtype=bool)])
         vals, _ = self._strip_reach(np.concatenate([rows, rows]), up, np.where(up, np.inf, -np.inf))
@@ -827,8 +829,9 @@ class Polytope:
     def _strip_reach(self, rows: np.ndarray, upper: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """One side of each strip of ``rows`` (k,) over P, in the current frame along its unit normal
         g_k = (w_k * scale) / n_k: max of g_k^T z where ``upper`` (k,) is True, else min; or, where a
-        point of P reaches ``targets`` (k,; beyond the max: >=, beyond the min: <=; +-inf: none), the
-        value of such a point. Returns (values (k,), exact (k,) True where the value is the extent)."""
+        point of P reaches ``targets`` (k,; for an upper side a value >= it, for a lower side <= it;
+        +inf on an upper side and -inf on a lower one ask for the extent), the value of such a point.
+        Returns (values (k,), exact (k,) True where the value is the extent)."""
         self.bounds()
         eng = self._engine
         F = self._frame

@@ -175,7 +175,7 @@ def _inscribed(Gw: np.ndarray, hw: np.ndarray, triangular: bool, allow_fallback:
         try:
             x0, E2, steps = max_volume_inscribed(Gw, hw)
             return (f"interior point, Zhang-Gao ({steps} steps)", "optimal"), np.linalg.cholesky(E2), x0
-        except (SolverError, np.linalg.LinAlgError):
+        except (SolverError, np.linalg.LinAlgError, ValueError):
             pass
     n = Gw.shape[1]
     with _CVXPY:
@@ -195,13 +195,6 @@ def _inscribed(Gw: np.ndarray, hw: np.ndarray, triangular: bool, allow_fallback:
     return outcome, Mv, x0.value
 
 
-#: the first working sets of the inscribed and the outer ellipsoid have at most this many sides (strips)
-#: per parameter among those active at the LP-bound vertices, the nearest to the vertices' mean: their
-#: interior-point steps cost O(m^3) for m of them, and the rest is found by constraint generation. Arms
-#: benchmark, six-joint UR5: inscribed, 1,289 sides in 2 rounds 1.55 s, 208 sides in 5 rounds 0.44 s
-#: (Panda 2.73 s against 0.99 s); outer, the SDP solves 3.8 s against 1.1 s (Panda 8.0 s against 4.5 s),
-#: the same LP work; the same ellipsoids to 1e-8 of ln vol
-_SEED_MAX = 4
 #: the inscribed ellipsoid's working set drops a side whose slack at the last solution exceeds this
 #: (relative to 1 + |h|, as its violations)
 _INNER_DROP = 1e-2
@@ -223,10 +216,10 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     random polytopes with halfspace priors), the same working set is solved in that log-det form.
     ``solver`` of the result names the method of the last solve, ``info["formulation"]`` the form.
     Solved in the box frame of P by constraint generation over the sides (a working set seeded
-    with the sides active at the LP-bound vertices, at most 4 p of them, the nearest to those
-    vertices' mean; the most violated sides added after each solve, the sides with a slack above
-    1 % dropped, each at most once) so N = 1e5 rows work. The answer is shrunk about x0 so that it
-    lies inside P exactly (the solver may leave it ~1e-9 outside).
+    with the sides active at the LP-bound vertices; the most violated sides added after each
+    solve, the sides with a slack above 1 % dropped, each at most once) so N = 1e5 rows work. The
+    answer is shrunk about x0 so that it lies inside P exactly (the solver may leave it ~1e-9
+    outside).
     ``strips`` of the result: the strips whose sides were in the final working set. The result
     is cached on P (john_outer reuses it).
     """
@@ -237,26 +230,25 @@ def inner_ellipsoid(P: Polytope, allow_fallback: bool = False, batch: int = 64) 
     origin, scale, zlo, zhi, b = _frame(P)
     n = P.dim
     G, h, owner = _halfspaces_z(P, origin, scale)
-    # seed: sides active at the 2p LP-bound vertices (at most _SEED_MAX p of them, the nearest to the
-    # vertices' mean) + the box itself (seeding also with the hundreds of support points outer_ellipsoid
-    # leaves on P doubled the working set and the time: UR5 study, 968 sides in one round 2.8 s, against
-    # 422 in two rounds 1.7 s)
+    # seed: sides active at the 2p LP-bound vertices + the box itself (seeding also with the
+    # hundreds of support points outer_ellipsoid leaves on P doubled the working set and the time:
+    # UR5 study, 968 sides in one round 2.8 s, against 422 in two rounds 1.7 s; seeding with only the
+    # 4 p of them nearest to the vertices' mean took 0.44 s instead of 1.55 s on the arms benchmark's
+    # random states, but 29 rounds and 9 s instead of 2 and 4.3 s on the six-joint UR5 study's rows)
     Vz = (b.vertices() - origin) / scale
     act = np.flatnonzero(np.any(Vz @ G.T >= h - 1e-7 * (1 + np.abs(h)), axis=0))
-    if act.size > _SEED_MAX * n:
-        slack = h[act] - G[act] @ Vz.mean(axis=0)
-        act = act[np.argsort(slack)[: _SEED_MAX * n]]
     Gb, hbox = np.vstack([np.eye(n), -np.eye(n)]), np.concatenate([zhi, -zlo])
     ws = np.zeros(len(h), dtype=bool)
     ws[act] = True
     left = np.zeros(len(h), dtype=bool)  # sides dropped from the working set once
     rounds, solver, status = 0, "", ""
-    triangular = True
+    triangular = interior_point = True
     while True:
         rounds += 1
         Gw, hw = np.vstack([G[ws], Gb]), np.concatenate([h[ws], hbox])
         try:
-            (solver, status), Lv, xv = _inscribed(Gw, hw, triangular, allow_fallback)
+            (solver, status), Lv, xv = _inscribed(Gw, hw, triangular, allow_fallback, interior_point)
+            interior_point = solver.startswith("interior point")     # once it fails, Clarabel's rounds
         except SolverError:
             if not triangular:
                 raise
@@ -451,10 +443,9 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
 
     ``strips`` (default: every strip of P) is the pool. The S-procedure is solved in its
     multipliers (:mod:`boundid.sets._s_lagrangian`) by column generation on a working set. It starts
-    with the strips active at the LP-bound vertices (at most 4 p, the nearest to those vertices'
-    mean), each as its own interval clipped to the LP box's extent along it (a wider slab, still
-    containing P, known without an LP); the strips that keep a multiplier are then tightened exactly
-    by LP and the others leave. After each solve the dual's
+    with the strips active at the LP-bound vertices, each as its own interval clipped to the LP box's
+    extent along it (a wider slab, still containing P, known without an LP); the strips that keep a
+    multiplier are then tightened exactly by LP and the others leave. After each solve the dual's
     pseudo-moments price every pool strip (:func:`~boundid.sets.sdp._reduced_costs`). A side of a
     strip whose exact extent is unknown is priced with the extent of the points of P found so far,
     which can only overstate the reduced cost (the true extent is wider). The candidates, ``batch``
@@ -465,7 +456,7 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
     exact one, and the simplex gains that much in its first 20 of 175 steps), then likewise the other
     side, then, if the strip may still help, both sides exactly. Every LP adds a point of P. The
     LPs of a batch are shared by two threads, each on its own copy of the working-set LP
-    (:attr:`boundid.sets.polytope.LP_THREADS`). Pricing stops early while many strips help: once
+    (:data:`boundid.sets.polytope.LP_THREADS`). Pricing stops early while many strips help: once
     ``batch`` of them are known to (six-joint UR5: about 1,000 strips help the second solve, 180 are
     needed in the end; tightening them all cost 2,500 LPs). The strips known to help, and those
     within 10 ``price_tol`` of helping, join the working set. A strip whose multiplier is zero (below
@@ -525,6 +516,9 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
         new_points(before)
         exact_hi[rows[upper & ex]] = v[upper & ex] + LP_TOL
         exact_lo[rows[~upper & ex]] = v[~upper & ex] - LP_TOL
+        # a side settled at its level: that point of P moves the estimate even if no LP found it
+        np.maximum.at(uin, rows[upper & ~ex], v[upper & ~ex])
+        np.minimum.at(lin, rows[~upper & ~ex], v[~upper & ~ex])
         reached += int(np.sum(~ex))
 
     def tighten(rows):
@@ -543,7 +537,11 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
         # price the candidate strips rows with as little LP as it takes: first each one's far side (the
         # end of its interval farther from the pseudo-mean) only up to the point that would bring its
         # reduced cost to -near, then likewise its near side, then, if it still may help, both sides exactly
-        # (UR5, six joints: the far side's LP, stopped at its target, settles most of the candidates)
+        # (UR5, six joints: the far side's LP, stopped at its target, settles most of the candidates).
+        # Its threshold is a hair below the caller's: the reduced costs of a few rows round differently
+        # from those of the whole pool, and a candidate of the caller must stay one here (else no LP
+        # would run and the caller would pick it again forever)
+        near = near * (1 + 1e-6)
         far_up = None
         for phase in ("far", "near", "exact"):
             lo_e, hi_e = estimates(rows)
@@ -577,9 +575,10 @@ def outer_ellipsoid(P: Polytope, strips=None, allow_fallback: bool = False, pric
     # initial working set: pool strips active at the LP-bound vertices
     pool_fin = pool[np.isfinite(h[pool])]
     Vz = (b.vertices() - origin) / scale
+    # (all of them: on the six-joint UR5 study's rows, the 4 p nearest to the vertices' mean, as the inscribed
+    # ellipsoid's seed, left a first ellipsoid so loose that 30 rounds, adding a few strips each, did not
+    # reach the optimum, where all 1,300 reach it in 10)
     act = pool_fin[np.any(np.abs(Vz @ G[pool_fin].T - c[pool_fin]) >= h[pool_fin] - 1e-7, axis=0)]
-    if act.size > _SEED_MAX * n:                        # the nearest to the vertices' mean (as the inner's)
-        act = act[np.argsort(h[act] - np.abs(G[act] @ Vz.mean(axis=0) - c[act]))[: _SEED_MAX * n]]
     # until tightened, a strip enters the S-procedure as its own interval clipped to the LP box's
     # extent along it: a wider slab that still contains P. Only the strips that keep a multiplier
     # are then tightened (UR5, all six joints: 1,610 strips active at the LP-bound vertices, of
