@@ -324,7 +324,7 @@ def _study_rows(paths, reference: bool, runs: int = STUDY_RUNS):
             ref_t = time.perf_counter() - t0
             detail = f"previous method: {len(nr)} non-redundant strips, ln vol / p = {ref_lv / p:.6f}; "
         rows.append({"case": f"study {name} exact stage (N={N}, p={p})",
-                     "method": "LP bounds, then SDP outer and inner at once (2 threads), then John",
+                     "method": "LP bounds, then the SDP inner, outer (LPs on 2 threads) and John ellipsoids",
                      "time_s": total, "reference": "", "ref_time_s": np.nan, "ratio": np.nan, "max_dev": np.nan,
                      "log_vol_per_axis": np.nan, "load_avg": _load(),
                      "detail": ", ".join(f"{k} {v[0]:.2f} s" for k, v in t.items() if k != "total")
