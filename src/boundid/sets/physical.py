@@ -23,16 +23,11 @@ plain polytope (theta = origin + scale * z, P spanning [-1, 1] along every z_j; 
 solver fails). P's LP bounding box (widened by 1e-7 of its half-widths) is added to every conic
 program: it contains P_phys, so it changes nothing but keeps every working set bounded. The 2p
 programs of the bounds, most of a study's run time, call Clarabel directly (:class:`_StripProgram`:
-each strip an equality row and a bounded variable of its own, so that each interior-point step
-eliminates one dense row per strip, not two): measured on the six-joint UR5 (p = 52, 2,987 rows)
-and TX40 (p = 61, 690 rows) studies, about 2 x faster than the same programs through cvxpy, the
-same bounds to the solver's accuracy (1e-5 of the widths). Each objective has a working set of its
-own, started from the strips active at the plain LP's optimum of the same objective (about p of
-them) and grown by the strips its optimum violates; the objectives run on two threads. On the arms
-benchmark's UR5 (8,600 rows) that is 134 strips a set on average against 1,327 in one set shared
-by all 2p objectives: 5.8 s against 14.1 s for the bounds on 2 cores, the same bounds to 7.4e-7 of
-the half-widths; on its Panda (p = 62, 10,033 rows) 5.9 s, where the shared 1,681-strip set failed
-(Clarabel's NumericalError, RETRY too).
+one working set of strips for all of them, grown as the objectives are solved in turn; each strip
+an equality row and a bounded variable of its own, so that each interior-point step eliminates one
+dense row per strip, not two; one solver set up per working set): measured on the six-joint UR5
+(p = 52, 2,987 rows) and TX40 (p = 61, 690 rows) studies, about 2 x faster than the same programs
+through cvxpy, the same bounds to the solver's accuracy (1e-5 of the widths).
 
 Certificates. Every optimal point (and the centre, and the consistency minimiser) is checked
 against every strip on the original data, the prior box and every constraint: the largest
@@ -64,7 +59,6 @@ import scipy.sparse as sp
 
 from boundid._validation import as_float_array, as_matrix, as_regression, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
-from boundid.sets._working_set import ONE_BLAS_THREAD
 from boundid.sets.conic import (
     CLARABEL_LINALG,
     GEN_TOL,
@@ -236,27 +230,16 @@ def _margin_rows(vars_: _Vars, rho_scale: float):
 
 
 # ---------------------------------------------------------------------- the bounds' conic programs
-#: threads that solve the objectives at once, each objective whole on one thread (the machines have
-#: 2 cores)
+#: objectives solved on one working set before the strips their optima violate join it (so the
+#: objectives after them see those strips); an objective whose optimum violates a strip is solved
+#: again, after the others
+_QUEUE_BATCH = 8
+#: threads that solve a batch's objectives at once (the machines have 2 cores)
 _THREADS = min(2, os.cpu_count() or 1)
-#: at most this many of the strips one optimum violates join its working set (the most violated).
-#: Measured on the UR5 case (p = 52, 8,600 rows; Sum over solves of iterations x working rows, the
-#: cost of the interior-point steps, which is linear in the rows): 16 strips 985 k, 32 1,064 k
-#: (499 solves), 64 1,196 k (441 solves); 32 balances that against the set-up of each solve.
+#: at most this many of the strips one optimum violates join the working set (the most violated)
 _ADD_STRIPS = 32
 #: an objective solved this many times without its optimum satisfying every strip: SolverError
 _MAX_SOLVES = 50
-#: a last solve (its optimum violates no strip outside its working set) that ends AlmostSolved, or
-#: whose optimum is more than _SECOND_OPINION outside one of its own strips (frame units, a tenth of
-#: PRIMAL_TOL), is solved again with shorter steps (Clarabel's max_step_fraction 0.95, not 0.99: no
-#: tolerance changes), and the better answer kept: Solved before AlmostSolved, then the smaller dual
-#: gap plus violation. Clarabel's last steps can stall (a zero step) or lose feasibility; on the
-#: 22-parameter test cases (tests/test_physical_speed.py) one optimum 9.8e-7 outside a strip (0.98
-#: of the certificate's tolerance) came back 3e-12 inside, and dual gaps of 1.3e-6 half-widths came
-#: back as 9e-10 and 1.4e-7 (faer, the other linear algebra, gave the same stalled iterates on those
-#: two). Asked for 20 of the UR5 case's 104 objectives, 26 of the Panda's 124.
-_SECOND_OPINION = 0.1 * PRIMAL_TOL
-_SECOND_OPINION_SETTINGS = {**CLARABEL_LINALG, "max_step_fraction": 0.95}
 
 
 def _svec_index(k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -288,30 +271,21 @@ class _StripProgram:
     """min c^T v over the fixed parts of a :class:`ConicProblem` (its rows, cones, LMIs and box)
     and the strips |G_k^T v - c_k| <= h_k, for many objectives c: Clarabel [Clarabel] called
     directly (as cvxpy calls it: its default settings, CLARABEL_LINALG, RETRY after a numerical
-    failure), with constraint generation over the strips, one working set per objective.
+    failure), with constraint generation over one shared working set of strips.
 
-    Each strip of a working set is one equality row G_k^T v - r_k = c_k and the bound |r_k| <= h_k
+    Each strip of the working set is one equality row G_k^T v - r_k = c_k and the bound |r_k| <= h_k
     on a variable r_k of its own, not the two rows +-(G_k^T v) <= h_k +- c_k: the same feasible set
     of v, but the sparse LDL factorisation of each interior-point step eliminates one dense row per
     strip instead of two (1.45 x less time per step on the TX40 study's programs, 1.55 x on the
     UR5's).
 
-    Working sets. Each objective starts from its own seed (the caller's: for the bounds, the strips
-    active at the plain LP's optimum of the same objective) and is solved again, each time with the
-    strips its optimum violates (by more than GEN_TOL, at most _ADD_STRIPS of them, the most
-    violated) added, until its optimum violates none: it is then optimal over every strip (the
-    working set is a relaxation). The cost of an interior-point step is linear in the working rows
-    (about 6 us a row on the UR5 case), so small sets pay even though each objective needs a few
-    more solves: on the UR5 case (p = 52, 8,600 rows) 134 rows a set on average and 4.8 solves an
-    objective, against 1,262 to 1,327 rows and 1.4 solves for one working set shared by all 2p
-    objectives (3 x less work; the small programs are also better conditioned: on the Panda's
-    1,681-row shared set Clarabel failed, RETRY too, where no small one needs RETRY). A last solve
-    that ends AlmostSolved, or whose optimum lies more than _SECOND_OPINION outside one of its own
-    strips, gets a second opinion (_SECOND_OPINION_SETTINGS). The objectives
-    are independent: _THREADS threads take them in turn, each objective whole on one thread, so the
-    answers do not depend on the threads. info: rounds (the most solves one objective needed),
-    solves (all of them, second opinions apart), working_rows (the largest working set),
-    mean_working_rows (over the objectives' last sets), second_opinions.
+    Working set (as :meth:`ConicProblem.minimize_many`, but the objectives are solved in a queue):
+    the objectives are solved in batches of _QUEUE_BATCH on the current working set; the strips
+    each optimum violates (by more than GEN_TOL, at most _ADD_STRIPS of them, the most violated)
+    then join it and that objective goes to the back of the queue, so the objectives solved later
+    start with those strips. An optimum that violates no strip is optimal over every strip (the
+    working set is a relaxation). info: rounds (working sets solved on), solves, working_rows
+    (strips in the last working set).
 
     Dual bound (module docstring of :mod:`boundid.sets.conic`): with Clarabel's multipliers z
     (projected onto the dual cones) of  min q^T u s.t. A u + s = b, s in K,  every feasible u has
@@ -343,41 +317,47 @@ class _StripProgram:
 
     # ------------------------------------------------------------------ one working set
     def _model(self, ws: np.ndarray):
-        """(A (n_rows, n + m) CSC, b (n_rows,), Clarabel cones) on u = (v (n,), r (m,)) for the m strips
-        ``ws``: rows [equalities (m); rows of the problem; r <= h (m); -r <= h (m); cones; LMIs]. v's
-        columns from one dense array, r's as CSC arrays: scipy's sparse vstack/hstack of the ten blocks
-        took 3.8 ms a model on the UR5 case's 134-row sets, this 0.6 ms (a solve: about 20 ms)."""
+        """(A, b, Clarabel cones) on u = (v, r) for the strips ``ws``: rows [equalities; rows of the
+        problem; r <= h; -r <= h; cones; LMIs]."""
         n, m = self.n, len(ws)
-        n_le = self.le_A.shape[0]
-        Dv = np.zeros((3 * m + n_le + self.cone_A.shape[0], n))        # v's columns, dense: zeros dropped below
-        Dv[:m], Dv[m:m + n_le], Dv[3 * m + n_le:] = self.G[ws], self.le_A, self.cone_A
-        # r_k's column: -1 in its equality row, +1 in r_k <= h_k, -1 in -r_k <= h_k
-        k = np.arange(m)
-        Ar = sp.csc_matrix((np.tile([-1.0, 1.0, -1.0], m), np.column_stack([k, m + n_le + k, 2 * m + n_le + k]).ravel(),
-                            3 * np.arange(m + 1)), shape=(Dv.shape[0], m))
-        A = sp.hstack([sp.csc_matrix(Dv), Ar], format="csc")
+        I = sp.identity(m, format="csr")
+        Z = sp.csr_matrix
+        A = sp.vstack([sp.hstack([Z(self.G[ws]), -I]),
+                       sp.hstack([Z(self.le_A), Z((self.le_A.shape[0], m))]),
+                       sp.hstack([Z((m, n)), I]),
+                       sp.hstack([Z((m, n)), -I]),
+                       sp.hstack([Z(self.cone_A), Z((self.cone_A.shape[0], m))])], format="csc")
+        A.eliminate_zeros()
         b = np.concatenate([self.c[ws], self.le_b, self.h[ws], self.h[ws], self.cone_b])
         cones = [clarabel.ZeroConeT(m)] if m else []
-        if n_le + 2 * m:
-            cones.append(clarabel.NonnegativeConeT(n_le + 2 * m))
-        for kind, size in self.cones:
-            cones.append(clarabel.SecondOrderConeT(size) if kind == "soc" else clarabel.PSDTriangleConeT(size))
+        if self.le_A.shape[0] + 2 * m:
+            cones.append(clarabel.NonnegativeConeT(self.le_A.shape[0] + 2 * m))
+        for kind, k in self.cones:
+            cones.append(clarabel.SecondOrderConeT(k) if kind == "soc" else clarabel.PSDTriangleConeT(k))
         return A, b, cones
 
-    def _solve(self, model, q: np.ndarray, linalg: dict = CLARABEL_LINALG):
-        """One Clarabel solve of ``model`` (A, b, cones) for the cost q with the linear algebra
-        ``linalg``: (status, u, z) with the status in cvxpy's words ("optimal" or
-        "optimal_inaccurate"); after a numerical failure a new solver with the RETRY settings tries
-        once more."""
-        A, b, cones = model
+    def _solve(self, model, q: np.ndarray):
+        """One Clarabel solve of ``model`` (A, b, cones, [solver]) for the cost q: (status, u, z) with
+        the status in cvxpy's words ("optimal" or "optimal_inaccurate"). The model's solver is set up
+        once and then only given the new cost (Clarabel's data update: the same iterates as a new
+        solver, bit for bit, without its setup); after a numerical failure a new solver with the RETRY
+        settings tries once more."""
+        A, b, cones, cache = model
         N = A.shape[1]
         for extra in ({}, RETRY):
             try:
-                settings = clarabel.DefaultSettings()
-                settings.verbose = False
-                for key, val in {**linalg, **extra}.items():
-                    setattr(settings, key, val)
-                sol = clarabel.DefaultSolver(sp.csc_matrix((N, N)), q, A, b, cones, settings).solve()
+                if extra or not cache:
+                    settings = clarabel.DefaultSettings()
+                    settings.verbose = False
+                    for key, val in {**CLARABEL_LINALG, **extra}.items():
+                        setattr(settings, key, val)
+                    solver = clarabel.DefaultSolver(sp.csc_matrix((N, N)), q, A, b, cones, settings)
+                    if not extra:
+                        cache.append(solver)
+                else:
+                    solver = cache[0]
+                    solver.update(q=q)
+                sol = solver.solve()
                 status = str(sol.status)
             except Exception as exc:                    # noqa: BLE001 (reported below like cvxpy's errors)
                 sol, status = None, f"solver error ({exc})"
@@ -420,72 +400,60 @@ class _StripProgram:
         terms = np.where(g == 0, 0.0, terms)
         return const + float(terms.sum()) - 1e-12 * (abs(const) + float(np.abs(terms).sum()))
 
-    # ------------------------------------------------------------------ one objective, all objectives
-    def _quality(self, q, model, ws, status: str, u: np.ndarray, z: np.ndarray, viol: np.ndarray):
-        """(0 if Solved else 1, dual gap (0 without a box) + largest strip violation) of an answer: the
-        smaller, the better."""
-        gap = q @ u - self._dual_bound(q, model[0], model[1], z, ws)
-        return status != "optimal", (gap if np.isfinite(gap) else 0.0) + max(float(viol.max()), 0.0)
-
-    def _minimize(self, cost: np.ndarray, seed: np.ndarray):
-        """argmin of cost^T v (cost (n,)) over the fixed parts and every strip, by constraint generation
-        from the strips ``seed``: (v (n,), dual bound, status, solves, strips in the last working set,
-        second opinions asked)."""
-        in_ws = np.zeros(len(self.h), dtype=bool)
-        in_ws[seed] = True
-        in_ws &= self.fin
-        second = 0
-        for solves in range(1, _MAX_SOLVES + 1):
-            ws = np.flatnonzero(in_ws)
-            A, b, cones = model = self._model(ws)
-            q = np.concatenate([cost, np.zeros(len(ws))])
-            status, u, z = self._solve(model, q)
-            viol = np.abs(self.G @ u[:self.n] - self.c) - self.h         # (m,) frame units, -inf for the zero rows
-            last = not np.any((viol > GEN_TOL) & ~in_ws)
-            if last and (status != "optimal" or viol.max() > _SECOND_OPINION):
-                second += 1
-                try:
-                    alt = self._solve(model, q, _SECOND_OPINION_SETTINGS)
-                except (SolverError, InfeasibleProblem):
-                    alt = None
-                if alt is not None:
-                    alt_viol = np.abs(self.G @ alt[1][:self.n] - self.c) - self.h
-                    if self._quality(q, model, ws, *alt, alt_viol) < self._quality(q, model, ws, status, u, z, viol):
-                        (status, u, z), viol = alt, alt_viol
-            v = u[:self.n]
-            new = np.flatnonzero((viol > GEN_TOL) & ~in_ws)
-            if not new.size:
-                return v, self._dual_bound(q, A, b, z, ws), status, solves, len(ws), second
-            if new.size > _ADD_STRIPS:
-                new = new[np.argpartition(viol[new], -_ADD_STRIPS)[-_ADD_STRIPS:]]
-            in_ws[new] = True
-        raise SolverError(f"{self.prob.what}: constraint generation did not converge in {_MAX_SOLVES} solves "
-                          f"({int(in_ws.sum())} working strips).")
+    # ------------------------------------------------------------------ all objectives
+    def _solve_into(self, part, costs: np.ndarray, model, ws: np.ndarray, out) -> None:
+        """Solve the objectives ``part`` (indices into ``costs``) in turn on ``model``, writing each
+        argmin, value, dual bound and status into ``out`` = (X, values, dual, status)."""
+        A, b = model[0], model[1]
+        X, values, dual, status = out
+        for i in part:
+            q = np.concatenate([costs[i], np.zeros(len(ws))])
+            status[i], u, z = self._solve(model, q)
+            X[i] = u[:self.n]
+            values[i] = float(costs[i] @ X[i])
+            dual[i] = self._dual_bound(q, A, b, z, ws)
 
     def minimize_many(self, costs: np.ndarray, seed=()) -> ConicResult:
-        """argmin of each row of ``costs`` (k, n) over the fixed parts and every strip. ``seed``: the
-        strips each objective's working set starts from, one index array for all, or k of them
-        (one per objective)."""
+        """argmin of each row of ``costs`` (k, n) over the fixed parts and every strip."""
         costs = np.atleast_2d(np.asarray(costs, float))
-        k = costs.shape[0]
-        seed_arrays = [np.asarray(s, dtype=int) for s in seed] if len(seed) and np.ndim(seed[0]) else None
-        if seed_arrays is None:
-            seed_arrays = [np.asarray(seed, dtype=int)] * k
-        elif len(seed_arrays) != k:
-            raise ValueError(f"{len(seed_arrays)} seeds for {k} objectives")
-        # one BLAS thread while the objectives solve: the pass over the strips after each solve (G v) is a
-        # multi-threaded OpenBLAS call otherwise, whose threads spin between the calls and take the cores the
-        # solves need (the UR5 case on one solving thread: 12.3 s wall and 18.5 s CPU, against 9.4 s and 9.3 s)
-        with ONE_BLAS_THREAD, ThreadPoolExecutor(_THREADS) as pool:
-            out = list(pool.map(self._minimize, costs, seed_arrays))      # Clarabel releases the GIL while it solves
-        X = np.array([o[0] for o in out]).reshape(k, self.n)
-        values = np.einsum("ij,ij->i", costs, X)
-        dual = np.array([o[1] for o in out], dtype=float)
-        solves, rows = np.array([o[3] for o in out]), np.array([o[4] for o in out])
-        info = {"rounds": int(solves.max(initial=0)), "solves": int(solves.sum()),
-                "working_rows": int(rows.max(initial=0)), "mean_working_rows": float(rows.mean()) if k else 0.0,
-                "second_opinions": int(sum(o[5] for o in out))}
-        return ConicResult(X, values, dual, [o[2] for o in out], info)
+        k, n = costs.shape[0], self.n
+        X = np.full((k, n), np.nan)
+        values, dual = np.full(k, np.nan), np.full(k, np.nan)
+        status = [""] * k
+        in_ws = np.zeros(len(self.h), dtype=bool)
+        in_ws[np.asarray(seed, dtype=int)] = True
+        in_ws &= self.fin
+        queue, solved = list(range(k)), np.zeros(k, dtype=int)
+        rounds = solves = 0
+        out = (X, values, dual, status)
+        while queue:
+            batch, queue = queue[:_QUEUE_BATCH], queue[_QUEUE_BATCH:]
+            ws = np.flatnonzero(in_ws)
+            A, b, cones = self._model(ws)
+            rounds += 1
+            # the batch's solves are independent: one solver per thread (Clarabel releases the GIL), each
+            # answer the same as in turn (a solver given a new cost iterates as a new one, bit for bit)
+            parts = [batch[j::_THREADS] for j in range(min(_THREADS, len(batch)))]
+            with ThreadPoolExecutor(len(parts)) as pool:
+                list(pool.map(self._solve_into, parts, [costs] * len(parts),
+                              [(A, b, cones, []) for _ in parts], [ws] * len(parts), [out] * len(parts)))
+            solves += len(batch)
+            solved[batch] += 1
+            viol = np.abs(self.G @ X[batch].T - self.c[:, None]) - self.h[:, None]   # (m, len(batch))
+            viol[~self.fin] = -np.inf
+            solved_on = in_ws.copy()                   # the working set these optima saw
+            for col, i in enumerate(batch):
+                new = np.flatnonzero((viol[:, col] > GEN_TOL) & ~solved_on)
+                if new.size:
+                    if solved[i] >= _MAX_SOLVES:
+                        raise SolverError(f"{self.prob.what}: constraint generation did not converge in {solves} "
+                                          f"solves ({int(in_ws.sum())} working strips).")
+                    if new.size > _ADD_STRIPS:
+                        new = new[np.argpartition(viol[new, col], -_ADD_STRIPS)[-_ADD_STRIPS:]]
+                    in_ws[new] = True
+                    queue.append(i)
+        info = {"rounds": rounds, "solves": solves, "working_rows": int(in_ws.sum())}
+        return ConicResult(X, values, dual, status, info)
 
 
 def _same_polytope(P: Polytope, Q: Polytope) -> bool:
@@ -597,12 +565,8 @@ class PhysicalSet:
         """Strips active (within 1e-7) at the points Z (m, p) of the frame."""
         if Z.size == 0:
             return np.zeros(0, dtype=int)
-        return np.flatnonzero(np.any(self._active(G, c, h, Z), axis=0))
-
-    @staticmethod
-    def _active(G, c, h, Z: np.ndarray) -> np.ndarray:
-        """(m, N) bool: strip k active (within 1e-7) at the point Z[i] (Z (m, p), frame units)."""
-        return np.abs(Z @ G.T - c) - h >= -1e-7 * (1.0 + h)
+        R = np.abs(Z @ G.T - c) - h
+        return np.flatnonzero(np.any(R >= -1e-7 * (1.0 + h), axis=0))
 
     # ------------------------------------------------------------------ verification
     def _excess(self, theta: np.ndarray, V: _Vars, Vpts: np.ndarray, scale: np.ndarray, gamma: float = 1.0,
@@ -762,11 +726,8 @@ class PhysicalSet:
         zlo, zhi = self._z_box(origin, scale, lp_box)
         G, c, h = self._strips(origin, scale)
         plain_b = self.plain.bounds()
-        # objective i (min z_i, then max z_i) starts from the strips active at the plain LP's optimum
-        # of the same objective: the physical optimum keeps most of them (12 objectives of the UR5
-        # case sampled: 8 to 46 of the 9 to 51 strips active there were, all of them in 5)
+        seed = self._seed(G, c, h, (plain_b.vertices() - origin) / scale)
         costs = np.vstack([V.T, -V.T])
-        seeds = [np.flatnonzero(a) for a in self._active(G, c, h, (plain_b.vertices() - origin) / scale)]
 
         prob = ConicProblem(n, box=None if V.lifted else (zlo, zhi), what="physically consistent bounds")
         if V.lifted:
@@ -775,7 +736,7 @@ class PhysicalSet:
         # the strips on v: |G (T v + t0) - c| <= h
         program = _StripProgram(prob, G @ V.T, c - G @ V.t0, h)
         try:
-            r = program.minimize_many(costs, seed=seeds)
+            r = program.minimize_many(costs, seed=seed)
         except InfeasibleProblem:
             raise self._empty_error(self.consistency()) from None
         Z = V.z(r.points)
