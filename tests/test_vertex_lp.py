@@ -7,7 +7,7 @@ import pytest
 from scipy.optimize import linprog
 
 from boundid.sets._vertex_lp import INFEASIBLE, NO_START, OPTIMAL, REACHED, STEP_LIMIT, UNBOUNDED, vertex_simplex
-from boundid.sets._working_set import Block, LPStatusError, WorkingSetLP
+from boundid.sets._working_set import KEEP_RECENT, Block, LPStatusError, WorkingSetLP
 
 
 def _dense(G, lo, up, col_lo, col_hi):
@@ -275,3 +275,33 @@ def test_reaches_in_two_threads_equal_one_engine_and_share_rows():
     X = V[which]
     assert np.all(G @ X.T <= up[:, None] + 1e-9) and np.all(G @ X.T >= lo[:, None] - 1e-9)
     assert np.array_equal(lp.ws_rows(0), twin.ws_rows(0))
+
+
+def test_pruned_working_set_gives_the_same_supports_and_keeps_its_bases_consistent():
+    """An engine whose working set is cut back whenever a call starts above max_rows answers every
+    support as linprog does (and as an engine that only grows); after a prune the working set holds
+    the last basis's rows and the newest remembered bases' rows, each at its own pool row, and a
+    remembered start whose rows were dropped brings them back."""
+    rng = np.random.default_rng(11)
+    n, m = 12, 3000
+    G, lo, up = _strips(rng, m, n)
+    small = WorkingSetLP([Block(G, lo.copy(), up.copy())], -np.ones(n), np.ones(n), tol=1e-9, max_rows=60)
+    D = rng.normal(size=(60, n))
+    D[30:] = D[:30] + 0.05 * rng.normal(size=(30, n))      # near the earlier directions: remembered starts
+    ref = np.array([_linprog_max(d, G, lo, up, -np.ones(n), np.ones(n)) for d in D])
+    sizes = []
+    for d, r in zip(D, ref, strict=True):
+        val = small.supports(d[None, :])[0][0]
+        assert val == pytest.approx(r, abs=1e-9)
+        sizes.append(small.n_rows)
+    assert max(sizes) < 4 * 60 and sizes.count(min(sizes)) >= 1
+    grown = sum(small.in_ws[0])
+    assert grown == small.n_rows                       # in_ws and the rows of _A agree
+    k = small.ws_rows(0)
+    np.testing.assert_array_equal(small._A[n + small.row_of[0][k]], G[k])
+    np.testing.assert_array_equal(small._key[n + small.row_of[0][k]], k)
+    small.prune()
+    assert small.n_rows <= (1 + KEEP_RECENT) * n
+    assert np.all(small._act < n + small.n_rows)
+    x, _ = small.minimize(-D[0])                       # its remembered optimum: rows come back as needed
+    assert -D[0] @ x == pytest.approx(-ref[0], abs=1e-9)

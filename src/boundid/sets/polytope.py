@@ -85,6 +85,15 @@ VERTEX_TOL = 1e-8
 #: a batch of fewer than _THREAD_MIN directions stays on one
 LP_THREADS = min(2, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
 _THREAD_MIN = 16
+#: the LP engine's working set is cut back to its last basis when a call starts with more rows than
+#: _ROWS_PER_COL per parameter (see WorkingSetLP.prune)
+_ROWS_PER_COL = 30
+
+
+def _max_rows(p: int) -> int:
+    return max(1000, _ROWS_PER_COL * p)
+
+
 #: the bounds are re-solved in the box frame when a half-width in the first frame is outside this
 _FRAME_OK = (0.1, 10.0)
 _EPS = np.finfo(float).eps
@@ -446,7 +455,8 @@ class Polytope:
         if self._engine is None:
             F = self._get_frame()
             self._engine = WorkingSetLP([self._strip_pool(F), self._halfspace_block(F)], *self._col_bounds(F),
-                                        seed=[(0, self._seed(F)), (1, np.arange(self._n_half))], tol=LP_TOL)
+                                        seed=[(0, self._seed(F)), (1, np.arange(self._n_half))], tol=LP_TOL,
+                                        max_rows=_max_rows(self.dim))
         return self._engine
 
     @property
@@ -470,7 +480,7 @@ class Polytope:
         seed = [(0, old.ws_rows(0)), (1, np.arange(self._n_half))] if old is not None else \
             [(0, self._seed(F)), (1, np.arange(self._n_half))]
         self._engine = WorkingSetLP([self._strip_pool(F), self._halfspace_block(F)], *self._col_bounds(F),
-                                    seed=seed, tol=LP_TOL)
+                                    seed=seed, tol=LP_TOL, max_rows=_max_rows(self.dim))
         if old is not None:
             self._engine.take_basis(old)
         self._engine.active[0] = pool
@@ -773,15 +783,21 @@ class Polytope:
     def support_points(self, directions) -> tuple[np.ndarray, np.ndarray]:
         """(max over P of d^T theta, a maximising vertex) for each row d of ``directions`` (m, p):
         values (m,), points (m, p). Batched: one LP per distinct optimal basis, every other
-        direction in that basis's normal cone answered by the same vertex (no LP)."""
+        direction in that basis's normal cone answered by the same vertex (no LP); from _THREAD_MIN
+        directions on, the first and second halves in LP_THREADS threads."""
         D = as_matrix(directions, "directions", self.dim)
         if np.any(~np.any(D != 0, axis=1)):
             raise InputError("directions must not contain a zero row.")
         F = self._theta_frame()
         Dz = D * F.scale
         nrm = np.linalg.norm(Dz, axis=1)
+        eng = self._engine
         try:
-            vals, V, which = self._engine.supports(Dz / nrm[:, None])
+            if LP_THREADS > 1 and len(D) >= _THREAD_MIN:
+                vals, V, which, _ = reaches_in_threads([eng, *self._engine_clones(LP_THREADS - 1)], Dz / nrm[:, None],
+                                                       np.inf)
+            else:
+                vals, V, which = eng.supports(Dz / nrm[:, None])
         except LPStatusError as exc:
             raise self._status_error(exc.status) from None
         X = F.to_theta(V)
