@@ -273,6 +273,38 @@ def test_lmi_case_matches_cvxpy(planar):
         np.testing.assert_allclose(X @ cons.lift.T, Theta, atol=1e-8)
 
 
+def test_a_solve_that_stops_on_numerical_errors_gets_every_attempt(planar, monkeypatch):
+    """Clarabel made to stop on NumericalError unless its static regularisation is at least 1e-6 (as on
+    the Panda arms benchmark's 1,673-strip program): the bounds still come, from the last of ATTEMPTS,
+    equal to the cvxpy problems over every strip; with one attempt fewer they raise SolverError."""
+    import clarabel
+
+    from boundid.sets import conic
+
+    real = clarabel.DefaultSolver
+
+    class Fussy:
+        def __init__(self, P, q, A, b, cones, settings):
+            self.inner, self.ok = real(P, q, A, b, cones, settings), settings.static_regularization_constant >= 1e-6
+
+        def update(self, **kw):
+            self.inner.update(**kw)
+
+        def solve(self):
+            sol = self.inner.solve()
+            return sol if self.ok else type("Stopped", (), {"status": "NumericalError", "x": sol.x, "z": sol.z})()
+
+    W, y = urdf_data(planar, N=40, e=15.0)
+    cons = planar.physical_constraints()
+    reference = cvxpy_bounds(W, y, 15.0, cons)
+    monkeypatch.setattr(clarabel, "DefaultSolver", Fussy)
+    b = PhysicalSet(W, y, 15.0, cons).bounds()
+    assert_bounds_match(b, *reference, rel=1e-5)
+    monkeypatch.setattr(physical, "ATTEMPTS", conic.ATTEMPTS[:2])
+    with pytest.raises(SolverError, match="NumericalError"):
+        PhysicalSet(W, y, 15.0, cons).bounds()
+
+
 # ---------------------------------------------------------------------- the physical bounds
 
 

@@ -60,9 +60,9 @@ import scipy.sparse as sp
 from boundid._validation import as_float_array, as_matrix, as_regression, as_vector
 from boundid.errors import InfeasibleDataError, InputError, SolverError
 from boundid.sets.conic import (
+    ATTEMPTS,
     CLARABEL_LINALG,
     GEN_TOL,
-    RETRY,
     ConicProblem,
     ConicResult,
     InfeasibleProblem,
@@ -270,7 +270,7 @@ def _smat(s: np.ndarray, k: int) -> np.ndarray:
 class _StripProgram:
     """min c^T v over the fixed parts of a :class:`ConicProblem` (its rows, cones, LMIs and box)
     and the strips |G_k^T v - c_k| <= h_k, for many objectives c: Clarabel [Clarabel] called
-    directly (as cvxpy calls it: its default settings, CLARABEL_LINALG, RETRY after a numerical
+    directly (as cvxpy calls it: its default settings, CLARABEL_LINALG, ATTEMPTS after a numerical
     failure), with constraint generation over one shared working set of strips.
 
     Each strip of the working set is one equality row G_k^T v - r_k = c_k and the bound |r_k| <= h_k
@@ -340,11 +340,11 @@ class _StripProgram:
         """One Clarabel solve of ``model`` (A, b, cones, [solver]) for the cost q: (status, u, z) with
         the status in cvxpy's words ("optimal" or "optimal_inaccurate"). The model's solver is set up
         once and then only given the new cost (Clarabel's data update: the same iterates as a new
-        solver, bit for bit, without its setup); after a numerical failure a new solver with the RETRY
-        settings tries once more."""
+        solver, bit for bit, without its setup); after a numerical failure new solvers with the other
+        settings of ATTEMPTS try again."""
         A, b, cones, cache = model
         N = A.shape[1]
-        for extra in ({}, RETRY):
+        for extra in ATTEMPTS:
             try:
                 if extra or not cache:
                     settings = clarabel.DefaultSettings()
