@@ -1,6 +1,6 @@
 """The conic programs of the physically consistent bounds, solved by Clarabel directly
-(:class:`boundid.sets.physical._StripProgram`: one shared working set of strips, each strip an equality
-row and a bounded variable of its own).
+(:class:`boundid.sets.physical._StripProgram`: one shared working set of strips, then one of its own
+for each objective still violating strips; each strip an equality row and a bounded variable of its own).
 
 Independent references: one cvxpy problem per optimum written here with every strip at once, no
 constraint generation, no scaling and no lift variable of the package's (Clarabel through cvxpy); the
@@ -153,7 +153,8 @@ def test_strip_program_matches_the_cvxpy_path(seeded):
     """The same objectives on the same scaled problem: _StripProgram and ConicProblem.minimize_many
     (two rows per strip, through cvxpy) give the same optima to 1e-7; each optimum satisfies every
     strip; each dual bound is below its optimum and within 1e-6 of it. Without a seed the working set
-    starts empty: the queue adds the violated strips and solves objectives again."""
+    starts empty: the queue adds the violated strips, and the objectives whose first optimum violated
+    strips are finished alone, on working sets of their own."""
     prob, G, c, h, seed = scaled_problem(4)
     seed = seed if seeded else np.zeros(0, dtype=int)
     n = prob.n
@@ -173,6 +174,7 @@ def test_strip_program_matches_the_cvxpy_path(seeded):
     assert set(r.status) <= {"optimal", "optimal_inaccurate"}
     if not seeded:
         assert r.info["solves"] > 2 * n and r.info["rounds"] > 1 and r.info["working_rows"] > 0
+        assert r.info["finished_alone"] > 0 and r.info["solves_alone"] >= r.info["finished_alone"]
 
 
 def test_triangle_vectors_keep_the_inner_product():
