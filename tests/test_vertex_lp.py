@@ -7,7 +7,7 @@ import pytest
 from scipy.optimize import linprog
 
 from boundid.sets._vertex_lp import INFEASIBLE, NO_START, OPTIMAL, REACHED, STEP_LIMIT, UNBOUNDED, vertex_simplex
-from boundid.sets._working_set import KEEP_RECENT, Block, LPStatusError, WorkingSetLP
+from boundid.sets._working_set import Block, LPStatusError, WorkingSetLP
 
 
 def _dense(G, lo, up, col_lo, col_hi):
@@ -279,9 +279,9 @@ def test_reaches_in_two_threads_equal_one_engine_and_share_rows():
 
 def test_pruned_working_set_gives_the_same_supports_and_keeps_its_bases_consistent():
     """An engine whose working set is cut back whenever a call starts above max_rows answers every
-    support as linprog does (and as an engine that only grows); after a prune the working set holds
-    the last basis's rows and the newest remembered bases' rows, each at its own pool row, and a
-    remembered start whose rows were dropped brings them back."""
+    support as linprog does; it is cut back (its size falls) and stays small; after a prune the working
+    set holds each row at its own pool row, and a remembered start whose rows were dropped brings them
+    back."""
     rng = np.random.default_rng(11)
     n, m = 12, 3000
     G, lo, up = _strips(rng, m, n)
@@ -294,14 +294,71 @@ def test_pruned_working_set_gives_the_same_supports_and_keeps_its_bases_consiste
         val = small.supports(d[None, :])[0][0]
         assert val == pytest.approx(r, abs=1e-9)
         sizes.append(small.n_rows)
-    assert max(sizes) < 4 * 60 and sizes.count(min(sizes)) >= 1
-    grown = sum(small.in_ws[0])
-    assert grown == small.n_rows                       # in_ws and the rows of _A agree
+    assert max(sizes) < 4 * 60 and any(b < a for a, b in zip(sizes, sizes[1:], strict=False))
+    assert sum(small.in_ws[0]) == small.n_rows          # in_ws and the rows of _A agree
     k = small.ws_rows(0)
     np.testing.assert_array_equal(small._A[n + small.row_of[0][k]], G[k])
     np.testing.assert_array_equal(small._key[n + small.row_of[0][k]], k)
+    oldest = small._archive[small._n_archived % len(small._archive)][0]    # the oldest remembered basis
     small.prune()
-    assert small.n_rows <= (1 + KEEP_RECENT) * n
-    assert np.all(small._act < n + small.n_rows)
+    assert not small.in_ws_key(oldest[oldest >= 0]).all()
+    best = np.argmax(small._archive_x[: len(small._archive)] @ D[0])
     x, _ = small.minimize(-D[0])                       # its remembered optimum: rows come back as needed
     assert -D[0] @ x == pytest.approx(-ref[0], abs=1e-9)
+    keys = small._archive[best][0]
+    assert small.in_ws_key(keys[keys >= 0]).all()
+
+
+def test_objectives_solved_before_rows_come_back_are_checked_against_them():
+    """A solve may add rows to the working set (a remembered start's pruned rows, the rows a vertex past
+    its target violates). Here the second objective's solve adds exactly the rows the first one's answer
+    violates, which the pass over the pool then skips as rows of the working set: the first objective
+    must still be solved again, and every argmin equals linprog's optimum and satisfies every row."""
+    rng = np.random.default_rng(5)
+    n, m = 10, 2000
+    G, lo, up = _strips(rng, m, n)
+    lp = WorkingSetLP([Block(G, lo.copy(), up.copy())], -np.ones(n), np.ones(n), tol=1e-9)
+    C = np.vstack([np.eye(n)[0], -np.eye(n)[0]])
+    solve, answers = lp._solve, []
+
+    def solve_adding_rows(cost, **kw):
+        out = solve(cost, **kw)
+        answers.append(out[0])
+        if len(answers) == 2:                       # the rows the first answer violates, added mid-round
+            x = answers[0]
+            lp.add_rows(0, np.flatnonzero((G @ x > up + 1e-9) | (G @ x < lo - 1e-9)))
+        return out
+
+    lp._solve = solve_adding_rows
+    X = lp.minimize_many(C)
+    first = answers[0]
+    assert np.any((G @ first > up + 1e-9) | (G @ first < lo - 1e-9))      # the case arose
+    ref = np.array([-_linprog_max(-c, G, lo, up, -np.ones(n), np.ones(n)) for c in C])
+    np.testing.assert_allclose(np.einsum("ij,ij->i", C, X), ref, atol=1e-9)
+    assert np.all(G @ X.T <= up[:, None] + 1e-9) and np.all(G @ X.T >= lo[:, None] - 1e-9)
+
+
+def test_prune_keeps_the_rows_that_bound_the_lps():
+    """A direction the strips do not see, closed only by two seeded halfspace rows (no column bound):
+    after many solves on one side and prunes down to a few rows, the other side's optimum is still
+    bounded and equal to linprog's (the seed's rows survive every prune, in copies too)."""
+    rng = np.random.default_rng(3)
+    n, m = 6, 800
+    G, lo, up = _strips(rng, m, n)
+    G[:, -1] = 0.0                                  # the strips never see the last coordinate
+    H = np.zeros((2, n))
+    H[0, -1], H[1, -1] = 1.0, -1.0                  # -2 <= x_last <= 3, as two one-sided rows
+    halves = Block(H, np.full(2, -np.inf), np.array([3.0, 2.0]))
+    cols = (np.append(-np.ones(n - 1), -np.inf), np.append(np.ones(n - 1), np.inf))     # the last one open
+    lp = WorkingSetLP([Block(G, lo.copy(), up.copy()), halves], *cols, seed=[(1, np.arange(2))], tol=1e-9,
+                      max_rows=20)
+    for _ in range(30):
+        d = rng.normal(size=n)
+        d[-1] = abs(d[-1])                          # maximising up the last coordinate: the upper row active
+        lp.supports(d[None, :])
+    for eng in (lp, lp.clone()):
+        eng.prune()
+        assert eng.in_ws[1].all()
+        d = np.zeros(n)
+        d[-1] = -1.0
+        assert eng.supports(d[None, :])[0][0] == pytest.approx(2.0, abs=1e-9)

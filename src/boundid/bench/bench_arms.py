@@ -78,7 +78,8 @@ on the known vertices) one after the other; each one's `time_s` is its own wall 
 CPU time is counted once, on the exact stage's row); `exact stage` is the wall time of the LP bounds
 plus that of the three ellipsoids, as in a study's "exact optima" (the goal's measure); then
 `physical bounds` (`model.physical_constraints()` and `PhysicalSet(..., plain=P).bounds()`: one
-pseudo-inertia LMI per link, Clarabel, the 2p objectives on two threads, on one working set). A
+pseudo-inertia LMI per link, Clarabel, the 2p objectives on two threads, first on one shared working
+set, then each one that still violates strips on a set of its own). A
 part that raises has no time and says why in `detail`.
 
 **Memory.** Each case runs in a fresh process (multiprocessing, "spawn"); `peak_rss_gb` is that

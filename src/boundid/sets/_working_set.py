@@ -67,7 +67,8 @@ CONE_WINDOW = 256
 #: optima (with their bases) a WorkingSetLP remembers as starts for new objectives
 _ARCHIVE = 2048
 #: a vertex past its target that violates pool rows: those rows join and the simplex starts again from
-#: the same remembered optimum (feasible for the whole pool), at most this many times in all; a working
+#: the same remembered optimum (a point of the pool's polytope while the pool's bounds have not
+#: changed; else the simplex refuses the start and the next one is taken), at most this many times; a working
 #: set cut back by prune() misses rows the first vertex past a target often violates (Panda, seven
 #: joints: 324 of 2,419 strip sides settled at their targets with one try)
 _REACH_TRIES = 3
@@ -439,12 +440,14 @@ class WorkingSetLP:
     batch : int
         At most this many of the most violated rows are added per objective and round.
     max_rows : int or None
-        When a call starts with more working-set rows than this, the working set is cut back to
-        the last basis (:meth:`prune`); None: it only grows.
+        When a call starts with more working-set rows than this, the working set is cut back
+        (:meth:`prune`); None: it only grows.
+    keep : list of (block index, row indices) or None
+        Rows no prune removes (default: ``seed``, the rows that keep the LPs bounded).
     """
 
     def __init__(self, blocks, col_lo, col_hi, seed=(), tol: float = 1e-9, batch: int = 32,
-                 max_rounds: int = 10_000, max_rows: int | None = None):
+                 max_rounds: int = 10_000, max_rows: int | None = None, keep=None):
         self.blocks = list(blocks)
         self.n_cols = len(col_lo)
         self.tol = tol
@@ -490,6 +493,10 @@ class WorkingSetLP:
         self._h: highspy.Highs | None = None
         for b, rows in seed:
             self.add_rows(b, np.asarray(rows, dtype=np.int64))
+        #: the keys of the rows no prune removes
+        self._keep = np.unique(np.concatenate([self._offset[b] + np.asarray(rows, dtype=np.int64)
+                                               for b, rows in (seed if keep is None else keep)] or
+                                              [np.zeros(0, dtype=np.int64)]))
 
     # ------------------------------------------------------------------ working set
     def add_rows(self, b: int, rows: np.ndarray) -> None:
@@ -527,6 +534,11 @@ class WorkingSetLP:
             out[sel] = self.n_cols + self.row_of[bb][keys[sel] - self._offset[bb]]
         return out
 
+    def keep_rows(self) -> list[tuple[int, np.ndarray]]:
+        """The rows no prune removes, as (block index, row indices) (the ``keep`` of a copy)."""
+        b = np.searchsorted(self._offset, self._keep, side="right") - 1
+        return [(int(bb), self._keep[b == bb] - self._offset[bb]) for bb in np.unique(b)]
+
     def in_ws_key(self, keys: np.ndarray) -> np.ndarray:
         """Whether each pool key (>= 0) is in the working set."""
         b = np.searchsorted(self._offset, keys, side="right") - 1
@@ -537,17 +549,24 @@ class WorkingSetLP:
         return out
 
     def prune(self) -> None:
-        """Cut the working set back to the last basis's rows (the column bounds stay). The next solves
-        start from that basis or from a remembered optimum (whose rows come back with it), and the
-        passes over the pool add again the rows they need: a working set that only grows makes every
-        simplex step pay for rows that no longer matter (UR5, six joints: 4,800 rows, where the
-        supports of nearby directions need about 1,000)."""
+        """Cut the working set back to the column bounds, the rows it must keep (``keep``), the last
+        basis's rows and those of the newest remembered optima (at most KEEP_RECENT of them, while the
+        rows kept stay within half of ``max_rows``). The next solves start from such a basis or from an
+        older remembered optimum (whose rows come back with it), and the passes over the pool add again
+        the rows they need: a working set that only grows makes every simplex step pay for rows that
+        no longer matter (UR5, six joints: 4,800 rows, where the supports of nearby directions need
+        about 1,000)."""
         n = self.n_cols
         keep = np.zeros(n + self.n_rows, dtype=bool)
         keep[:n] = True
+        have = self.in_ws_key(self._keep)
+        keep[self._rows_of_keys(self._keep[have])] = True
         if self._act is not None:
             keep[self._act] = True
+        room = n + (self.max_rows // 2 if self.max_rows is not None else self.n_rows)
         for j in range(min(KEEP_RECENT, len(self._archive))):     # the newest remembered bases' rows
+            if keep.sum() >= room:
+                break
             keys = self._archive[(self._n_archived - 1 - j) % _ARCHIVE][0]
             have = keys < 0
             have[~have] = self.in_ws_key(keys[~have])
@@ -582,6 +601,9 @@ class WorkingSetLP:
             here[n + other.row_of[b][ks]] = n + self.row_of[b][ks]
         self._act, self._side, self._x = here[other._act], other._side.copy(), None
         self._bases = {k: (here[a], s.copy()) for k, (a, s) in other._bases.items()}
+        if other._archive:                        # their rows at once (one copy of _A, not one per basis)
+            keys = np.concatenate([k for k, _ in other._archive])
+            self._rows_of_keys(np.unique(keys[keys >= 0]))
         for keys, s in other._archive:            # the vertices, recomputed in these coordinates
             act = self._rows_of_keys(keys)
             N = s[:, None] * self._A[act]
@@ -597,7 +619,8 @@ class WorkingSetLP:
         (:func:`reaches_in_threads`)."""
         other = WorkingSetLP(self.blocks, self.col_lo.copy(), self.col_hi.copy(),
                              seed=[(b, self.ws_rows(b)) for b in range(len(self.blocks))], tol=self.tol,
-                             batch=self.batch, max_rounds=self.max_rounds, max_rows=self.max_rows)
+                             batch=self.batch, max_rounds=self.max_rounds, max_rows=self.max_rows,
+                             keep=self.keep_rows())
         other.active = list(self.active)
         other.take_basis(self)
         return other
@@ -825,16 +848,18 @@ class WorkingSetLP:
             self.active[0] = stage
             pending = np.arange(costs.shape[0])
             for r in range(self.max_rounds):
+                mark = self.n_rows
                 for i in pending:
                     target = targets[i] if targets is not None and r == 0 and s == len(levels) else -np.inf
                     X[i], reached[i] = self._solve(costs[i], keep_basis=costs.shape[0] > 1, new=r == 0,
                                                    target=target)
                 worst = self.violators(X[pending].T, batch=max(8, self.batch // max(1, pending.size // 4)))
+                late = self._violates_rows_since(X[pending], mark)
                 still = []
-                for i, w in zip(pending, worst, strict=True):
+                for i, w, lt in zip(pending, worst, late, strict=True):
                     for b, rows in w:
                         self.add_rows(b, rows)
-                    if w:
+                    if w or lt:
                         still.append(i)
                 pending = np.array(still, dtype=int)
                 if pending.size == 0:
@@ -843,6 +868,19 @@ class WorkingSetLP:
                 raise SolverError(f"constraint generation did not converge in {self.max_rounds} rounds.")
         self._remember(costs, X, keep=~reached)
         return X, reached
+
+    def _violates_rows_since(self, X: np.ndarray, mark: int) -> np.ndarray:
+        """For each row x of X (k, n_cols): whether it violates (by more than ``tol``) a working-set row
+        added after the working set had ``mark`` rows. A solve may add rows (a remembered start's pruned
+        rows, the rows a vertex past its target violates), which an objective solved before it in the
+        same round never saw, and which the pass over the pool skips, as rows of the working set."""
+        lo_, up_ = self.n_cols + mark, self.n_cols + self.n_rows
+        if lo_ == up_:
+            return np.zeros(len(X), dtype=bool)
+        AX = self._A[lo_:up_] @ X.T
+        with np.errstate(invalid="ignore"):
+            bad = (AX > self._up[lo_:up_, None] + self.tol) | (AX < self._lo[lo_:up_, None] - self.tol)
+        return bad.any(axis=0)
 
     def _remember(self, costs: np.ndarray, X: np.ndarray, keep: np.ndarray) -> None:
         """Archive the optima X of the pool (one per row of ``costs``, where ``keep``) with their bases."""

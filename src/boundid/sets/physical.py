@@ -232,8 +232,8 @@ def _margin_rows(vars_: _Vars, rho_scale: float):
 
 # ---------------------------------------------------------------------- the bounds' conic programs
 #: objectives solved on one working set before the strips their optima violate join it (so the
-#: objectives after them see those strips); an objective whose optimum violates a strip is solved
-#: again, after the others
+#: objectives after them see those strips); an objective whose optimum violates a strip is then
+#: finished on a working set of its own (_StripProgram._finish)
 _QUEUE_BATCH = 8
 #: threads that solve a batch's objectives at once (the machines have 2 cores)
 _THREADS = min(2, os.cpu_count() or 1)

@@ -85,8 +85,8 @@ VERTEX_TOL = 1e-8
 #: a batch of fewer than _THREAD_MIN directions stays on one
 LP_THREADS = min(2, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
 _THREAD_MIN = 16
-#: the LP engine's working set is cut back to its last basis when a call starts with more rows than
-#: _ROWS_PER_COL per parameter (see WorkingSetLP.prune)
+#: the LP engine's working set is cut back (WorkingSetLP.prune: its seed, its last basis and the newest
+#: remembered bases) when a call starts with more rows than _ROWS_PER_COL per parameter
 _ROWS_PER_COL = 30
 
 
@@ -480,7 +480,8 @@ class Polytope:
         seed = [(0, old.ws_rows(0)), (1, np.arange(self._n_half))] if old is not None else \
             [(0, self._seed(F)), (1, np.arange(self._n_half))]
         self._engine = WorkingSetLP([self._strip_pool(F), self._halfspace_block(F)], *self._col_bounds(F),
-                                    seed=seed, tol=LP_TOL, max_rows=_max_rows(self.dim))
+                                    seed=seed, tol=LP_TOL, max_rows=_max_rows(self.dim),
+                                    keep=old.keep_rows() if old is not None else None)
         if old is not None:
             self._engine.take_basis(old)
         self._engine.active[0] = pool
