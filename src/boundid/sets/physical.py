@@ -278,7 +278,7 @@ class _StripProgram:
     """min c^T v over the fixed parts of a :class:`ConicProblem` (its rows, cones, LMIs and box)
     and the strips |G_k^T v - c_k| <= h_k, for many objectives c: Clarabel [Clarabel] called
     directly (as cvxpy calls it: its default settings, CLARABEL_LINALG, ATTEMPTS after a numerical
-    failure), with constraint generation over one shared working set of strips.
+    failure), with constraint generation over working sets of strips (below).
 
     Each strip of the working set is one equality row G_k^T v - r_k = c_k and the bound |r_k| <= h_k
     on a variable r_k of its own, not the two rows +-(G_k^T v) <= h_k +- c_k: the same feasible set
@@ -458,8 +458,7 @@ class _StripProgram:
                         ws[np.argpartition(slack, _OWN_PER_VAR * n)[:_OWN_PER_VAR * n]]
                     own[i] = np.union1d(keep, worst[:_ADD_OWN])
                     in_ws[worst[:_ADD_STRIPS]] = True       # the objectives after it see these
-            for i in own:
-                X[i] = np.nan
+                    X[i] = np.nan
         # the objectives whose optimum violated strips, each finished on its own working set, one thread each
         with ThreadPoolExecutor(_THREADS) as pool:
             own_solves = list(pool.map(lambda i: self._finish(i, costs, own[i], out), sorted(own)))
