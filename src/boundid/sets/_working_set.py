@@ -30,8 +30,8 @@ normal cone (the cone spanned by the outward normals of the constraints active i
 
 A working set that only grows makes every simplex step pay for rows that no longer matter: after
 many objectives (supports, strip extents) it holds half the pool. With ``max_rows`` it is cut back
-(:meth:`WorkingSetLP.prune`) to the rows of the last basis and of the newest remembered optima when
-a call starts above that size; the passes add again what the next optima need. Six-joint UR5
+(:meth:`WorkingSetLP.prune`) to its seed's rows and the rows of the last basis and of the newest
+remembered optima when a call starts above that size; the passes add again what the next optima need. Six-joint UR5
 study (p = 52, 9,592 strips): the outer ellipsoid's strip extents 32 s -> 14-16 s, the same ellipsoid.
 """
 
@@ -521,31 +521,36 @@ class WorkingSetLP:
         self._key = np.concatenate([self._key, self._offset[b] + rows])
         self.n_rows += rows.size
 
+    def _block_of(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(block index, row in that block) of each pool key (>= 0; see _offset)."""
+        b = np.searchsorted(self._offset, keys, side="right") - 1
+        return b, keys - self._offset[b]
+
     def _rows_of_keys(self, keys: np.ndarray) -> np.ndarray:
         """The rows of _A with these keys (see _offset), pool rows added to the working set where missing."""
         keys = np.asarray(keys, dtype=np.int64)
         pool = keys >= 0
-        b = np.searchsorted(self._offset, keys, side="right") - 1
+        b, k = self._block_of(keys)
         for bb in np.unique(b[pool]):
-            self.add_rows(int(bb), keys[pool & (b == bb)] - self._offset[bb])
+            self.add_rows(int(bb), k[pool & (b == bb)])
         out = -1 - keys
         for bb in np.unique(b[pool]):
             sel = pool & (b == bb)
-            out[sel] = self.n_cols + self.row_of[bb][keys[sel] - self._offset[bb]]
+            out[sel] = self.n_cols + self.row_of[bb][k[sel]]
         return out
 
     def keep_rows(self) -> list[tuple[int, np.ndarray]]:
         """The rows no prune removes, as (block index, row indices) (the ``keep`` of a copy)."""
-        b = np.searchsorted(self._offset, self._keep, side="right") - 1
-        return [(int(bb), self._keep[b == bb] - self._offset[bb]) for bb in np.unique(b)]
+        b, k = self._block_of(self._keep)
+        return [(int(bb), k[b == bb]) for bb in np.unique(b)]
 
     def in_ws_key(self, keys: np.ndarray) -> np.ndarray:
         """Whether each pool key (>= 0) is in the working set."""
-        b = np.searchsorted(self._offset, keys, side="right") - 1
+        b, k = self._block_of(keys)
         out = np.zeros(keys.size, dtype=bool)
         for bb in np.unique(b):
             sel = b == bb
-            out[sel] = self.in_ws[bb][keys[sel] - self._offset[bb]]
+            out[sel] = self.in_ws[bb][k[sel]]
         return out
 
     def prune(self) -> None:
@@ -560,15 +565,13 @@ class WorkingSetLP:
         n = self.n_cols
         keep = np.zeros(n + self.n_rows, dtype=bool)
         keep[:n] = True
-        have = self.in_ws_key(self._keep)
-        keep[self._rows_of_keys(self._keep[have])] = True
         if self._act is not None:
             keep[self._act] = True
-        for j in range(min(KEEP_RECENT, len(self._archive))):     # the newest remembered bases' rows
-            keys = self._archive[(self._n_archived - 1 - j) % _ARCHIVE][0]
-            have = keys < 0
-            have[~have] = self.in_ws_key(keys[~have])
-            keep[self._rows_of_keys(keys[have])] = True
+        recent = [self._archive[(self._n_archived - 1 - j) % _ARCHIVE][0]
+                  for j in range(min(KEEP_RECENT, len(self._archive)))]
+        keys = np.concatenate([self._keep, *recent])
+        keys = np.unique(keys[keys >= 0])                 # the column bounds are kept already
+        keep[self._rows_of_keys(keys[self.in_ws_key(keys)])] = True
         new_row = np.cumsum(keep) - 1
         for b in range(len(self.blocks)):
             ks = np.flatnonzero(self.in_ws[b])
